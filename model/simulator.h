@@ -1,0 +1,165 @@
+// The contract between estimators and simulators (ARCHITECTURE.md, "The contract").
+//
+// A simulator is a black box: a full parameter vector theta (physical units, SI, in the order of
+// parameters()) goes in; a Trajectory of named channels with units comes out, together with a
+// Status. Estimators never see simulator internals, only these types.
+//
+// Thread safety: a Simulator object is used by one thread at a time. Parallel ensembles give each
+// thread (or MPI rank) its own clone(); clones share nothing mutable.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <limits>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace sigmaheart::model {
+
+// ---------------------------------------------------------------------------------------------
+// Status: a forward run that fails is a value, never an exception or a crash.
+enum class StatusCode {
+  kOk = 0,
+  kDiverged,         // Newton did not converge, even after the step was cut
+  kNonFinite,        // NaN or Inf in the state
+  kOutOfBounds,      // theta outside the parameter bounds
+  kNotPeriodic,      // the beat did not settle within the allowed number of beats
+  kProcessFailed,    // external simulator: non-zero exit
+  kTimeout,          // external simulator: killed after its time limit
+  kBadOutput,        // external simulator: output missing or unreadable
+  kInvalidArgument,  // wrong sizes or options: a programming or configuration error
+};
+
+const char* to_string(StatusCode code);
+
+struct Status {
+  StatusCode code = StatusCode::kOk;
+  std::string message;  // human-readable, names the quantity and time where it went wrong
+
+  bool ok() const { return code == StatusCode::kOk; }
+  static Status Ok() { return {}; }
+  static Status Error(StatusCode c, std::string msg) { return {c, std::move(msg)}; }
+};
+
+// ---------------------------------------------------------------------------------------------
+// Parameters: names, units (SI), nominal values, bounds, a one-line doc; lookup by name.
+struct Parameter {
+  std::string name;   // e.g. "sigma0"
+  std::string unit;   // SI unit string, e.g. "Pa", "1/s", "m^3/(Pa s)"
+  double nominal = 0.0;
+  double lower = -std::numeric_limits<double>::infinity();
+  double upper = std::numeric_limits<double>::infinity();
+  std::string doc;    // one line: what it is and where the default comes from
+};
+
+class ParameterSpace {
+ public:
+  ParameterSpace() = default;
+  explicit ParameterSpace(std::vector<Parameter> params);
+
+  int size() const { return static_cast<int>(params_.size()); }
+  const Parameter& operator[](int i) const { return params_.at(static_cast<size_t>(i)); }
+  const std::vector<Parameter>& all() const { return params_; }
+  std::vector<std::string> names() const;
+
+  std::optional<int> index(const std::string& name) const;
+  int index_or_throw(const std::string& name) const;  // std::invalid_argument with a did-you-mean
+
+  Eigen::VectorXd nominal() const;
+  // Replace a nominal value (presets and --set do this). Throws std::invalid_argument when the
+  // name is unknown or the value lies outside the bounds.
+  void set_nominal(const std::string& name, double value);
+
+  // Empty string when theta has the right size, is finite and lies inside the bounds; otherwise a
+  // message naming the first offending parameter, its value, unit and bounds.
+  std::string check(const Eigen::Ref<const Eigen::VectorXd>& theta) const;
+
+ private:
+  std::vector<Parameter> params_;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Trajectory: sample times [s] and named channels with units. values(k, c) is channel c at
+// times(k). Channels are SI unless their unit says otherwise (e.g. "1" for dimensionless).
+struct Channel {
+  std::string name;  // e.g. "V_lv", "P_lv", "V_seg07", "phase"
+  std::string unit;  // e.g. "m^3", "Pa", "m^3/s", "1"
+  std::string doc;
+};
+
+struct Trajectory {
+  Eigen::VectorXd times;            // [s], strictly increasing
+  std::vector<Channel> channels;
+  Eigen::MatrixXd values;           // samples x channels
+
+  int samples() const { return static_cast<int>(times.size()); }
+  std::optional<int> channel_index(const std::string& name) const;
+  // The column of a channel; throws std::invalid_argument naming the missing channel.
+  Eigen::VectorXd channel(const std::string& name) const;
+  bool has_channel(const std::string& name) const { return channel_index(name).has_value(); }
+};
+
+// Beat-level facts a simulator may report beside its curves (lumped and 3D models do).
+struct RunInfo {
+  int beats = 0;                    // beats integrated in total
+  double periodicity_change = 0.0;  // max relative beat-to-beat change of the last beat [-]
+  double period = 0.0;              // [s]
+  int newton_iterations = 0;        // total over the run
+  int step_cuts = 0;                // how often the time step was halved to recover
+};
+
+struct RunResult {
+  Trajectory trajectory;  // for a periodic model: the last (periodic) beat, t in [0, period]
+  Status status;
+  RunInfo info;
+};
+
+// ---------------------------------------------------------------------------------------------
+class Simulator {
+ public:
+  virtual ~Simulator() = default;
+
+  virtual std::string name() const = 0;                 // e.g. "lumped-sphere"
+  virtual const ParameterSpace& parameters() const = 0;
+  virtual std::vector<Channel> channels() const = 0;
+
+  // Runs the model for the full parameter vector theta (size parameters().size(), physical
+  // units). Never throws for a numerical failure: returns a non-ok Status (trajectory may then be
+  // partial or empty). Deterministic: the same theta gives the same bits.
+  virtual RunResult run(const Eigen::Ref<const Eigen::VectorXd>& theta) = 0;
+
+  // An independent copy with the same configuration; used for one thread or rank each.
+  virtual std::unique_ptr<Simulator> clone() const = 0;
+};
+
+// A simulator whose state can be stopped, saved, edited and resumed: what the ROUKF needs.
+// The state is a flat vector (positions, velocities, active variables, circulation pressures) plus
+// its time; advance() is a pure function of (state, theta, t_end).
+struct State {
+  double time = 0.0;  // [s]
+  Eigen::VectorXd x;
+};
+
+class SteppableSimulator : public Simulator {
+ public:
+  // Names (and units) of the entries of State::x, for logs and results.
+  virtual std::vector<Channel> state_layout() const = 0;
+
+  virtual State initial_state(const Eigen::Ref<const Eigen::VectorXd>& theta) = 0;
+
+  // Integrates from state.time to t_end (>= state.time) with the simulator's own time step,
+  // landing exactly on t_end. On failure the state is left at the last good time.
+  virtual Status advance(State& state, const Eigen::Ref<const Eigen::VectorXd>& theta,
+                         double t_end) = 0;
+
+  // The channel values (in the order of channels()) at the given state.
+  virtual Eigen::VectorXd sample(const State& state,
+                                 const Eigen::Ref<const Eigen::VectorXd>& theta) const = 0;
+};
+
+// Closest candidate by edit distance, for "did you mean" messages; empty if none is close.
+std::string closest_match(const std::string& word, const std::vector<std::string>& candidates);
+
+}  // namespace sigmaheart::model
