@@ -5,6 +5,7 @@
 #include "model/simulator.h"
 
 #include <string>
+#include <vector>
 
 namespace sigmaheart::model::lumped {
 
@@ -21,6 +22,13 @@ struct SphereOptions {
   std::string validate() const;
 };
 
+// Backward Euler (first order) on (y, y', P_v, P_ar, P_d, e_c, k_c, tau_c), one small Newton solve
+// per step (sphere.cpp). run() integrates beats from a relaxed state until the beat-to-beat change
+// is below periodic_tolerance and returns the last beat on t in [0, period]. Channels (SI):
+// V_lv, P_lv, P_ar, P_at, q_ar, q_at, phase (0 filling, 1 isovolumic contraction, 2 ejection,
+// 3 isovolumic relaxation), P_d, e_fibre, e_c, k_c, tau_c, sigma_act, viscous_power.
+// The state is the eight unknowns plus last_open_valve (state_layout()); t = 0 of every beat is
+// the ventricular depolarisation, the atrial kick fills the last 0.12 s of the beat.
 class LumpedSphere final : public SteppableSimulator {
  public:
   explicit LumpedSphere(SphereOptions options = {});
@@ -45,8 +53,15 @@ class LumpedSphere final : public SteppableSimulator {
                          const Eigen::Ref<const Eigen::VectorXd>& theta) const override;
 
  private:
+  // Size, bounds and option checks shared by run() and advance().
+  Status check_theta(const Eigen::Ref<const Eigen::VectorXd>& theta) const;
+  // Backward-Euler steps on the beat-local grid up to t_end (see sphere.cpp), with step cutting.
+  Status step_to(State& state, const Eigen::Ref<const Eigen::VectorXd>& theta, double t_end,
+                 int* newton_iterations, int* step_cuts) const;
+
   SphereOptions options_;
   ParameterSpace parameters_;
+  std::vector<int> index_;  // position in parameters_ of each model parameter (by name)
 };
 
 }  // namespace sigmaheart::model::lumped

@@ -1,0 +1,593 @@
+// The lumped BCS sphere (Caruel et al. 2014, section 2.2, "0D model"; MODELS.md section 2).
+//
+// Unknowns per step, all at t^{n+1}: x = (y, v = dy/dt, P_v, P_ar, P_d, e_c, k_c, tau_c).
+// Backward Euler on every equation (first order, L-stable: the e_c relaxation has a time
+// constant mu/Es ~ 20 us and the cavity one C_cav/K ~ 1e-5 s, far below dt):
+//   r0 = (y - y^n)/h - v
+//   r1 = rho d0 (v - v^n)/h + (d0/R0)(1 + y/R0) Sigma - P_v (1 + y/R0)^2        (balance)
+//   r2 = C_cav (P_v - P_v^n)/h + q(P_v, P_ar, P_at) + (V(y) - V^n)/h             (cavity)
+//   r3, r4 = two-stage Windkessel (model/circulation)
+//   r5..r7 = BCS active law (model/bcs), fibre strain e = (C - 1)/2, C = (1 + y/R0)^2
+// r0, r4, r6, r7 are eliminated exactly and Newton runs on the remaining 4x4 system (analytic
+// Jacobian; see newton_step). The activation enters as its exact average over the step.
+// Sigma = Sigma_pas(C) + eta dC/dt (1 + 2 C^-6) + Es (e - e_c)/(1 + 2 e_c)^2, Sigma_pas = 2 dW/dC
+// with W = c1 (J1 - 3) + c2 (J2 - 3) + c_exp (exp(b_exp (J1 - 3)^2) - 1) (see passive_stress).
+// Diagnostic "phase": 0 filling, 1 isovolumic contraction, 2 ejection, 3 isovolumic relaxation
+// (circulation::Phase); the closed-valve phases are told apart by state entry last_open_valve.
+// The time grid restarts at each beat: t = b T + j dt, plus the beat ends b T, so that run() and
+// advance() step on the same points and every beat ends exactly at a multiple of the period.
+#include "model/lumped/sphere.h"
+
+#include "model/bcs/active_law.h"
+#include "model/circulation/circulation.h"
+
+#include <Eigen/LU>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <sstream>
+#include <stdexcept>
+
+namespace sigmaheart::model::lumped {
+namespace {
+
+namespace circ = sigmaheart::model::circulation;
+
+// Parameter order of default_parameters(); LumpedSphere maps names to these slots.
+enum P : int {
+  kRho, kR0, kD0, kC1, kC2, kEta, kEs, kMu, kAlpha, kK0, kSigma0, kKATP, kKRS, kAPD, kPeriod,
+  kKat, kKar, kKp, kRp, kRd, kCp, kCd, kPsv, kPat0, kPatKick, kCcav, kN0Slope, kN0Emax,
+  kCexp, kBexp, kNumParams
+};
+const char* const kNames[kNumParams] = {
+    "rho",  "R0",     "d0",   "c1",  "c2",  "eta", "Es",  "mu",  "alpha", "k0",
+    "sigma0", "k_ATP", "k_RS", "APD", "period", "K_at", "K_ar", "K_p", "R_p", "R_d",
+    "C_p",  "C_d",    "P_sv", "P_at0", "P_at_kick", "C_cav", "n0_slope", "n0_e_max",
+    "c_exp", "b_exp"};
+
+// State layout (state_layout() documents it with units).
+enum X : int { kY, kV, kPv, kPar, kPd, kEc, kKc, kTc, kLastOpen, kStateSize };
+constexpr int kUnknowns = 8;  // kY..kTc; kLastOpen is a diagnostic flag, not an unknown
+using Vec = Eigen::Matrix<double, kUnknowns, 1>;
+
+// Scales that make the Newton rows dimensionless (tolerance is on these scaled rows).
+constexpr double kPref = 1e3;   // [Pa]
+constexpr double kVref = 1e-6;  // [m^3] (1 mL)
+constexpr int kMaxCuts = 8;     // step halvings before giving up (dt / 256)
+
+struct Model {
+  double rho, R0, d0, c1, c2, c_exp, b_exp, eta, period;
+  bcs::ActiveParameters act;
+  circ::CirculationParameters circ;
+  circ::AtrialPressure atrial;
+};
+
+Model unpack(const Eigen::Ref<const Eigen::VectorXd>& theta, const std::vector<int>& idx) {
+  auto at = [&](int k) { return theta(idx[static_cast<size_t>(k)]); };
+  Model m;
+  m.rho = at(kRho);
+  m.R0 = at(kR0);
+  m.d0 = at(kD0);
+  m.c1 = at(kC1);
+  m.c2 = at(kC2);
+  m.c_exp = at(kCexp);
+  m.b_exp = at(kBexp);
+  m.eta = at(kEta);
+  m.period = at(kPeriod);
+  m.act.Es = at(kEs);
+  m.act.mu = at(kMu);
+  m.act.alpha = at(kAlpha);
+  m.act.k0 = at(kK0);
+  m.act.sigma0 = at(kSigma0);
+  m.act.k_ATP = at(kKATP);
+  m.act.k_RS = at(kKRS);
+  m.act.APD = at(kAPD);
+  m.act.n0_slope = at(kN0Slope);
+  m.act.n0_e_max = at(kN0Emax);
+  m.circ.K_at = at(kKat);
+  m.circ.K_ar = at(kKar);
+  m.circ.K_p = at(kKp);
+  m.circ.R_p = at(kRp);
+  m.circ.R_d = at(kRd);
+  m.circ.C_p = at(kCp);
+  m.circ.C_d = at(kCd);
+  m.circ.P_sv = at(kPsv);
+  m.circ.C_cav = at(kCcav);
+  m.atrial.P_at0 = at(kPat0);
+  m.atrial.P_at_kick = at(kPatKick);
+  m.atrial.period = m.period;
+  return m;
+}
+
+// Passive stress of the sphere, Sigma = 2 dW/dC, and its derivative in C (MODELS.md s.2):
+// Mooney-Rivlin W = c1 (J1 - 3) + c2 (J2 - 3) plus the exponential stiffening named as the
+// alternative in MODELS.md s.2, W_exp = c_exp (exp(b_exp (J1 - 3)^2) - 1), J1 = 2C + C^-2.
+// Alone, Mooney-Rivlin gives an end-diastolic pressure-volume curve that flattens at large
+// volumes (P ~ linear in R), which makes the filling volume ill-determined; the exponential term
+// gives the steep, physiological end-diastolic curve.
+inline void passive_stress(const Model& m, double C, double& S, double& dS_dC) {
+  const double iC = 1.0 / C, iC3 = iC * iC * iC;
+  const double g = 1.0 - iC3;  // dJ1/dC = 2 g
+  S = 4.0 * g * (m.c1 + C * m.c2);
+  dS_dC = 4.0 * (3.0 * iC3 * iC * (m.c1 + C * m.c2) + g * m.c2);
+  if (m.c_exp > 0.0) {
+    const double I = 2.0 * C + iC * iC - 3.0;
+    const double E = std::exp(m.b_exp * I * I);
+    const double k = 8.0 * m.b_exp * m.c_exp;
+    S += k * I * g * E;
+    dS_dC += k * E * (2.0 * g * g + 3.0 * I * iC3 * iC + 4.0 * m.b_exp * I * I * g * g);
+  }
+}
+
+inline double cavity_volume(const Model& m, double y) {
+  const double R = m.R0 + y;
+  return 4.0 / 3.0 * std::numbers::pi * R * R * R;
+}
+
+// Static passive balance (d0/R0) s Sigma_pas(C) = P s^2 for y (bisection: robust, one call/run).
+double static_radius_offset(const Model& m, double P) {
+  auto f = [&](double y) {
+    const double s = 1.0 + y / m.R0;
+    double S = 0.0, dS = 0.0;
+    passive_stress(m, s * s, S, dS);
+    return m.d0 / m.R0 * s * S - P * s * s;
+  };
+  // f(0) = -P <= 0 and the passive stress grows with y: bracket the root in [0, hi].
+  double lo = 0.0, hi = 0.5 * m.R0;
+  while (f(hi) < 0.0 && hi < 10.0 * m.R0) hi *= 2.0;
+  for (int i = 0; i < 200 && hi - lo > 1e-15 * m.R0; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (f(mid) < 0.0 ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+// One backward-Euler step from xo over [t0, t0 + h]. Three of the eight equations are linear in
+// one unknown each and are eliminated exactly before Newton: y = y^n + h v (r0), P_d from r4
+// given P_ar, and (k_c, tau_c) from r6, r7 given e_c (bcs::reduced_step). Newton then runs on
+// u = (v, P_v, P_ar, e_c) with an analytic 4x4 Jacobian; the result is the same backward-Euler
+// solution as the full 8x8 system.
+using Vec4 = Eigen::Matrix<double, 4, 1>;
+using Mat4 = Eigen::Matrix<double, 4, 4>;
+
+struct StepContext {
+  const Model& m;
+  const Vec& xo;
+  double h;
+  double P_at;
+  bcs::StepActivation act;
+  double V_old;
+  double Pd_den;  // C_d/h + 1/R_p + 1/R_d
+  double Pd_rhs;  // C_d/h P_d^n + P_sv/R_d  (P_d = (Pd_rhs + P_ar/R_p) / Pd_den)
+};
+
+// Scaled residuals r = (balance [1/kPref], cavity, proximal Windkessel [h/kVref], R_e [1/kPref])
+// and their Jacobian in u. When `full` is given, it receives the complete 8-entry state.
+void reduced_residual(const StepContext& c, const Vec4& u, Vec4& r, Mat4& J, Vec* full) {
+  const Model& m = c.m;
+  const double h = c.h;
+  const double v = u(0), Pv = u(1), Par = u(2), ec = u(3);
+  const double y = c.xo(kY) + h * v;
+  const double s = 1.0 + y / m.R0;
+  const double C = s * s;
+  const double e = 0.5 * (C - 1.0);
+  const double dC_dy = 2.0 * s / m.R0, de_dy = s / m.R0;
+
+  double Sp = 0.0, dSp_dC = 0.0;
+  passive_stress(m, C, Sp, dSp_dC);
+  const double iC = 1.0 / C, iC2 = iC * iC, iC6 = iC2 * iC2 * iC2;
+  const double g = 1.0 + 2.0 * iC6, dg_dC = -12.0 * iC6 * iC;
+  const double Cdot = 2.0 * s * v / m.R0;
+  const double Sv = m.eta * Cdot * g;
+  const double dSv_dy = m.eta * (2.0 * v / (m.R0 * m.R0) * g + Cdot * dg_dC * dC_dy);
+  const double dSv_dv = m.eta * g * 2.0 * s / m.R0;
+
+  const bcs::ActiveState old{c.xo(kEc), c.xo(kKc), c.xo(kTc)};
+  const bcs::ReducedStep a = bcs::reduced_step(m.act, old, ec, e, c.act, h);
+
+  const double Sigma = Sp + Sv + a.stress;
+  const double dSigma_dy = dSp_dC * dC_dy + dSv_dy + a.dstress_de * de_dy;
+
+  const double Pd = (c.Pd_rhs + Par / m.circ.R_p) / c.Pd_den;
+  const double dPd_dPar = 1.0 / (m.circ.R_p * c.Pd_den);
+  const circ::ValveFlow q = circ::valve_flow(Pv, Par, c.P_at, m.circ);
+  const circ::WindkesselResidual w =
+      circ::windkessel_residual(Par, Pd, c.xo(kPar), c.xo(kPd), q.q_ar, h, m.circ);
+  const double R = m.R0 + y;
+  const double V = 4.0 / 3.0 * std::numbers::pi * R * R * R;
+  const double dV_dy = 4.0 * std::numbers::pi * R * R;
+
+  // Balance of the shell.
+  const double k1 = m.d0 / m.R0;
+  r(0) = (m.rho * m.d0 * (v - c.xo(kV)) / h + k1 * s * Sigma - Pv * C) / kPref;
+  const double dr0_dy = k1 * (Sigma / m.R0 + s * dSigma_dy) - Pv * dC_dy;
+  J(0, 0) = (dr0_dy * h + m.rho * m.d0 / h + k1 * s * dSv_dv) / kPref;
+  J(0, 1) = -C / kPref;
+  J(0, 2) = 0.0;
+  J(0, 3) = k1 * s * a.dstress_dec / kPref;
+  // Cavity volume balance.
+  const double fv = h / kVref;
+  r(1) = (m.circ.C_cav * (Pv - c.xo(kPv)) / h + q.q + (V - c.V_old) / h) * fv;
+  J(1, 0) = dV_dy * fv;  // (dV/dy) (dy/dv) / h = dV/dy
+  J(1, 1) = (m.circ.C_cav / h + q.dq_dPv) * fv;
+  J(1, 2) = q.dq_dPar * fv;
+  J(1, 3) = 0.0;
+  // Proximal Windkessel (the distal one is solved exactly for P_d).
+  r(2) = w.r_ar * fv;
+  J(2, 0) = 0.0;
+  J(2, 1) = -q.dqar_dPv * fv;
+  J(2, 2) = (w.dar_dPar + w.dar_dPd * dPd_dPar - q.dqar_dPar) * fv;
+  J(2, 3) = 0.0;
+  // Contractile-element balance (k_c, tau_c already eliminated).
+  r(3) = a.residual / kPref;
+  J(3, 0) = a.dres_de * de_dy * h / kPref;
+  J(3, 1) = 0.0;
+  J(3, 2) = 0.0;
+  J(3, 3) = a.dres_dec / kPref;
+
+  if (full != nullptr) {
+    (*full) << y, v, Pv, Par, Pd, ec, a.state.k_c, a.state.tau_c;
+  }
+}
+
+// One backward-Euler step of size h = t1 - t0; xo, xn hold the unknowns. Returns iterations or -1.
+int newton_step(const Model& m, const Vec& xo, double t0, double t1, const SphereOptions& o,
+                Vec& xn) {
+  const double h = t1 - t0;
+  const double Pd_den = m.circ.C_d / h + 1.0 / m.circ.R_p + 1.0 / m.circ.R_d;
+  const double Pd_rhs = m.circ.C_d / h * xo(kPd) + m.circ.P_sv / m.circ.R_d;
+  const bcs::StepActivation act = bcs::step_activation(t0, t1, 0.0, m.period, m.act);
+  StepContext c{m, xo, h, m.atrial(t1), act, cavity_volume(m, xo(kY)), Pd_den, Pd_rhs};
+  // Predictor: the contractile element follows the fibre strain extrapolated with y' (it tracks
+  // e closely except under load); everything else starts from the old values.
+  const double s_old = 1.0 + xo(kY) / m.R0, s_pred = s_old + h * xo(kV) / m.R0;
+  Vec4 u(xo(kV), xo(kPv), xo(kPar), xo(kEc) + 0.5 * (s_pred * s_pred - s_old * s_old));
+  Vec4 r;
+  Mat4 J;
+  reduced_residual(c, u, r, J, nullptr);
+  for (int it = 1; it <= o.newton_max_iterations; ++it) {
+    if (!r.allFinite()) return -1;
+    const Vec4 du = J.partialPivLu().solve(-r);
+    if (!du.allFinite()) return -1;
+    u += du;
+    if (1.0 + (xo(kY) + h * u(0)) / m.R0 <= 0.05) return -1;  // collapsed shell: not physical
+    reduced_residual(c, u, r, J, &xn);  // convergence test, and the next Jacobian
+    if (r.allFinite() && r.cwiseAbs().maxCoeff() <= o.newton_tolerance) return it;
+  }
+  return -1;
+}
+
+// The next point of the beat-local grid after t (see the file comment), capped at t_end.
+double next_time(double t, double t_end, double dt, double period) {
+  const double b = std::floor(t / period + 1e-12);
+  const double local = t - b * period;
+  double next = b * period + (std::floor(local / dt + 1e-9) + 1.0) * dt;
+  const double beat_end = (b + 1.0) * period;
+  if (next > beat_end - 1e-6 * dt) next = beat_end;
+  if (next > t_end - 1e-6 * dt) next = t_end;
+  return next;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+std::string SphereOptions::validate() const {
+  std::ostringstream s;
+  if (!(dt > 0.0 && dt <= 0.05)) s << "dt = " << dt << " s must lie in (0, 0.05]";
+  else if (min_beats < 1) s << "min_beats = " << min_beats << " must be >= 1";
+  else if (max_beats < min_beats) s << "max_beats = " << max_beats << " must be >= min_beats";
+  else if (!(periodic_tolerance > 0.0)) s << "periodic_tolerance must be > 0";
+  else if (output_every < 1) s << "output_every = " << output_every << " must be >= 1";
+  else if (!(newton_tolerance > 0.0 && newton_tolerance < 1e-2))
+    s << "newton_tolerance = " << newton_tolerance << " must lie in (0, 1e-2)";
+  else if (newton_max_iterations < 1) s << "newton_max_iterations must be >= 1";
+  return s.str();
+}
+
+ParameterSpace LumpedSphere::default_parameters() {
+  // Sources: [C14] Caruel et al. 2014 (Biomech Model Mechanobiol 13:897) and the CCMLC2014-like
+  // working set of MODELS.md s.2; [T] tuned so that the healthy beat meets MODELS.md s.7.
+  std::vector<Parameter> p(kNumParams);
+  auto set = [&](int i, const char* unit, double nominal, double lo, double hi, const char* doc) {
+    p[static_cast<size_t>(i)] = Parameter{kNames[i], unit, nominal, lo, hi, doc};
+  };
+  set(kRho, "kg/m^3", 1e3, 500.0, 2000.0, "wall density; tissue ~ water [C14]");
+  set(kR0, "m", 2.4e-2, 5e-3, 6e-2, "reference (unloaded) sphere radius [C14 working set]");
+  set(kD0, "m", 1.45e-2, 2e-3, 4e-2, "reference wall thickness [C14 working set]");
+  set(kC1, "Pa", 100.0, 0.0, 1e5, "Mooney-Rivlin c1 [T: with c2, c_exp: EDV 144 mL, EDP 7 mmHg]");
+  set(kC2, "Pa", 150.0, 0.0, 1e5, "Mooney-Rivlin c2 [T: with c1, c_exp, end-diastolic PV curve]");
+  set(kEta, "Pa s", 70.0, 0.0, 1e4, "passive viscosity [C14 working set]");
+  set(kEs, "Pa", 3e6, 1e4, 1e9, "series-element stiffness [C14 working set]");
+  set(kMu, "Pa s", 70.0, 0.0, 1e4, "contractile-element viscosity [C14 working set]");
+  set(kAlpha, "1", 1.5, 0.0, 100.0, "cross-bridge destruction by sliding [C14 working set]");
+  set(kK0, "Pa", 1e5, 0.0, 1e8, "maximal active stiffness [C14 working set]");
+  set(kSigma0, "Pa", 5.3e4, 0.0, 1e7, "contractility, maximal active stress [T: EF ~60 %]");
+  set(kKATP, "1/s", 8.0, 0.1, 1000.0,
+      "contraction rate [T: dP/dt max ~1500 mmHg/s; 35 (C14) gives ~15000 in 0D]");
+  set(kKRS, "1/s", 20.0, 0.1, 1000.0, "relaxation rate [C14 working set]");
+  set(kAPD, "s", 0.3, 0.01, 1.0, "action-potential duration (activation window) [T]");
+  set(kPeriod, "s", 0.85, 0.2, 3.0, "heart period (70 bpm) [C14 working set]");
+  set(kKat, "m^3/(Pa s)", 6e-7, 1e-10, 1e-3, "mitral valve conductance [C14 working set]");
+  set(kKar, "m^3/(Pa s)", 5e-7, 1e-10, 1e-3,
+      "aortic valve conductance [T: ~5 mmHg peak gradient; C14 set 1e-7 gives ~25]");
+  set(kKp, "m^3/(Pa s)", 5e-11, 0.0, 1e-8, "closed-valve leak conductance [C14 working set]");
+  set(kRp, "Pa s/m^3", 1e7, 1e5, 1e10,
+      "proximal arterial resistance [T: diastolic P_ar ~65 mmHg; C14 set 5e7]");
+  set(kRd, "Pa s/m^3", 1e8, 1e5, 1e11, "distal (peripheral) resistance [C14 working set]");
+  set(kCp, "m^3/Pa", 8e-9, 1e-12, 1e-6,
+      "proximal arterial compliance [T: pulse pressure ~50 mmHg; C14 set 6e-9]");
+  set(kCd, "m^3/Pa", 1e-9, 1e-12, 1e-6, "distal arterial compliance [C14 working set]");
+  set(kPsv, "Pa", 1e3, 0.0, 1e4, "venous pressure downstream of R_d [C14 working set]");
+  set(kPat0, "Pa", 950.0, 0.0, 5e3, "atrial pressure baseline, 7.1 mmHg [T: EDP in 5-12 mmHg]");
+  set(kPatKick, "Pa", 533.3, 0.0, 5e3, "atrial kick amplitude, 4 mmHg (sin^2, last 0.12 s) [T]");
+  set(kCcav, "m^3/Pa", 5e-12, 1e-15, 1e-9, "cavity compliance, regularises isovolumic phases");
+  set(kN0Slope, "1", 0.0, 0.0, 50.0,
+      "length-dependent activation gain dn0/de_c; 0 = classical n0 = 1 (Caruel n0 unverified)");
+  set(kN0Emax, "1", 0.0, -0.5, 0.5, "contractile strain where n0 reaches 1 (if n0_slope > 0)");
+  set(kCexp, "Pa", 30.0, 0.0, 1e5,
+      "exponential passive stiffening (MODELS.md s.2) [T: static EDP 5.5/7.8/13.5 mmHg at "
+      "140/160/180 mL]");
+  set(kBexp, "1", 1.0, 0.0, 50.0, "exponent b_exp of the passive stiffening (J1 - 3)^2 [T]");
+  return ParameterSpace(std::move(p));
+}
+
+LumpedSphere::LumpedSphere(SphereOptions options)
+    : LumpedSphere(options, default_parameters()) {}
+
+LumpedSphere::LumpedSphere(SphereOptions options, ParameterSpace parameters)
+    : options_(options), parameters_(std::move(parameters)) {
+  index_.resize(kNumParams);
+  for (int i = 0; i < kNumParams; ++i) {
+    index_[static_cast<size_t>(i)] = parameters_.index_or_throw(kNames[i]);
+  }
+}
+
+std::vector<Channel> LumpedSphere::channels() const {
+  return {
+      {"V_lv", "m^3", "left-ventricular cavity volume 4/3 pi R^3"},
+      {"P_lv", "Pa", "left-ventricular pressure P_v"},
+      {"P_ar", "Pa", "proximal arterial (aortic) pressure"},
+      {"P_at", "Pa", "prescribed atrial pressure"},
+      {"q_ar", "m^3/s", "aortic-valve flow, > 0 into the artery"},
+      {"q_at", "m^3/s", "mitral-valve flow, > 0 into the ventricle"},
+      {"phase", "1", "0 filling, 1 isovolumic contraction, 2 ejection, 3 isovolumic relaxation"},
+      {"P_d", "Pa", "distal arterial pressure"},
+      {"e_fibre", "1", "fibre Green-Lagrange strain e = (C - 1)/2"},
+      {"e_c", "1", "contractile-element strain"},
+      {"k_c", "Pa", "active stiffness"},
+      {"tau_c", "Pa", "contractile-element active stress"},
+      {"sigma_act", "Pa", "active fibre stress Es (e - e_c)/(1 + 2 e_c)^2"},
+      {"viscous_power", "W/m^3",
+       "passive viscous dissipation per unit reference wall volume, Sigma_vis (dC/dt)/2 >= 0"},
+  };
+}
+
+std::vector<Channel> LumpedSphere::state_layout() const {
+  return {
+      {"y", "m", "radial displacement of the mid-wall, R = R0 + y"},
+      {"dy_dt", "m/s", "radial velocity"},
+      {"P_v", "Pa", "ventricular pressure"},
+      {"P_ar", "Pa", "proximal arterial pressure"},
+      {"P_d", "Pa", "distal arterial pressure"},
+      {"e_c", "1", "contractile-element strain"},
+      {"k_c", "Pa", "active stiffness"},
+      {"tau_c", "Pa", "contractile-element active stress"},
+      {"last_open_valve", "1",
+       "0 mitral or 2 aortic: the valve open last; only labels the closed phases (1 or 3)"},
+  };
+}
+
+std::unique_ptr<Simulator> LumpedSphere::clone() const {
+  return std::make_unique<LumpedSphere>(*this);
+}
+
+Status LumpedSphere::check_theta(const Eigen::Ref<const Eigen::VectorXd>& theta) const {
+  if (theta.size() != parameters_.size()) {
+    std::ostringstream s;
+    s << "theta has " << theta.size() << " entries, expected " << parameters_.size();
+    return Status::Error(StatusCode::kInvalidArgument, s.str());
+  }
+  if (const std::string msg = parameters_.check(theta); !msg.empty()) {
+    return Status::Error(StatusCode::kOutOfBounds, msg);
+  }
+  if (const std::string msg = options_.validate(); !msg.empty()) {
+    return Status::Error(StatusCode::kInvalidArgument, "SphereOptions: " + msg);
+  }
+  const Model m = unpack(theta, index_);
+  if (m.act.APD >= m.period) {
+    return Status::Error(StatusCode::kOutOfBounds, "APD must be shorter than the period");
+  }
+  if (options_.dt > m.period) {
+    return Status::Error(StatusCode::kInvalidArgument, "dt is longer than the heart period");
+  }
+  return Status::Ok();
+}
+
+State LumpedSphere::initial_state(const Eigen::Ref<const Eigen::VectorXd>& theta) {
+  State s;
+  s.time = 0.0;
+  s.x = Eigen::VectorXd::Zero(kStateSize);
+  if (theta.size() != parameters_.size() || !theta.allFinite()) {
+    s.x.setConstant(std::numeric_limits<double>::quiet_NaN());
+    return s;
+  }
+  const Model m = unpack(theta, index_);
+  // Relaxed ventricle in static passive equilibrium with the atrial pressure at t = 0, the
+  // contractile element at rest (e_c = e, no active stress), arteries at a typical diastolic
+  // pressure (the periodic loop then settles within a few beats).
+  const double P0 = m.atrial(0.0);
+  const double y = static_radius_offset(m, P0);
+  const double s1 = 1.0 + y / m.R0;
+  s.x(kY) = y;
+  s.x(kPv) = P0;
+  s.x(kPar) = std::max(P0, 75.0 * 133.322);
+  s.x(kPd) = std::max(P0, 70.0 * 133.322);
+  s.x(kEc) = 0.5 * (s1 * s1 - 1.0);
+  s.x(kLastOpen) = static_cast<double>(circ::ValveRegime::kFilling);
+  return s;
+}
+
+Status LumpedSphere::step_to(State& state, const Eigen::Ref<const Eigen::VectorXd>& theta,
+                             double t_end, int* newton_iterations, int* step_cuts) const {
+  const Model m = unpack(theta, index_);
+  const double dt = options_.dt;
+  Vec x = state.x.head<kUnknowns>();
+  double last_open = state.x(kLastOpen);
+  double t = state.time;
+  while (t < t_end) {
+    const double t1 = next_time(t, t_end, dt, m.period);
+    // Try the whole step, then halves, quarters... (sub-steps land exactly on t1).
+    Vec xn = x;
+    bool done = false;
+    for (int cut = 0; cut <= kMaxCuts && !done; ++cut) {
+      const int n = 1 << cut;
+      Vec xs = x;
+      bool ok = true;
+      for (int k = 0; k < n && ok; ++k) {
+        const double ta = t + (t1 - t) * k / n;
+        const double tb = (k + 1 == n) ? t1 : t + (t1 - t) * (k + 1) / n;
+        Vec xk;
+        const int its = newton_step(m, xs, ta, tb, options_, xk);
+        if (its < 0) {
+          ok = false;
+        } else {
+          xs = xk;
+          if (newton_iterations) *newton_iterations += its;
+        }
+      }
+      if (ok) {
+        xn = xs;
+        done = true;
+        if (cut > 0 && step_cuts) *step_cuts += cut;
+      }
+    }
+    if (!done || !xn.allFinite()) {
+      state.x.head<kUnknowns>() = x;
+      state.x(kLastOpen) = last_open;
+      state.time = t;
+      std::ostringstream s;
+      s << "Newton did not converge at t = " << t1 << " s after " << kMaxCuts
+        << " step halvings (V = " << cavity_volume(m, x(kY)) * 1e6 << " mL, P_v = " << x(kPv)
+        << " Pa)";
+      return Status::Error(xn.allFinite() ? StatusCode::kDiverged : StatusCode::kNonFinite,
+                           s.str());
+    }
+    const auto regime = circ::valve_flow(xn(kPv), xn(kPar), m.atrial(t1), m.circ).regime;
+    if (regime != circ::ValveRegime::kClosed) last_open = static_cast<double>(regime);
+    x = xn;
+    t = t1;
+  }
+  state.x.head<kUnknowns>() = x;
+  state.x(kLastOpen) = last_open;
+  state.time = t_end;
+  return Status::Ok();
+}
+
+Status LumpedSphere::advance(State& state, const Eigen::Ref<const Eigen::VectorXd>& theta,
+                             double t_end) {
+  if (Status st = check_theta(theta); !st.ok()) return st;
+  if (state.x.size() != kStateSize) {
+    return Status::Error(StatusCode::kInvalidArgument, "state has the wrong size");
+  }
+  if (!state.x.allFinite()) return Status::Error(StatusCode::kNonFinite, "state is not finite");
+  if (!(t_end >= state.time)) {
+    return Status::Error(StatusCode::kInvalidArgument, "t_end lies before the state time");
+  }
+  return step_to(state, theta, t_end, nullptr, nullptr);
+}
+
+Eigen::VectorXd LumpedSphere::sample(const State& state,
+                                     const Eigen::Ref<const Eigen::VectorXd>& theta) const {
+  const Model m = unpack(theta, index_);
+  const auto& x = state.x;
+  const double s = 1.0 + x(kY) / m.R0;
+  const double C = s * s;
+  const double e = 0.5 * (C - 1.0);
+  const double P_at = m.atrial(state.time);
+  const auto q = circ::valve_flow(x(kPv), x(kPar), P_at, m.circ);
+  const auto last = x(kLastOpen) > 1.0 ? circ::ValveRegime::kEjection : circ::ValveRegime::kFilling;
+  const double Cdot = 2.0 * s * x(kV) / m.R0;
+  const double iC2 = 1.0 / (C * C);
+  const double Svis = m.eta * Cdot * (1.0 + 2.0 * iC2 * iC2 * iC2);
+  Eigen::VectorXd out(14);
+  out << cavity_volume(m, x(kY)), x(kPv), x(kPar), P_at, q.q_ar, q.q_at,
+      static_cast<double>(circ::phase(q.regime, last)), x(kPd), e, x(kEc), x(kKc), x(kTc),
+      bcs::active_stress(e, x(kEc), m.act.Es), 0.5 * Svis * Cdot;
+  return out;
+}
+
+RunResult LumpedSphere::run(const Eigen::Ref<const Eigen::VectorXd>& theta) {
+  RunResult result;
+  result.trajectory.channels = channels();
+  if (Status st = check_theta(theta); !st.ok()) {
+    result.status = st;
+    return result;
+  }
+  const Model m = unpack(theta, index_);
+  const double T = m.period;
+  result.info.period = T;
+
+  const int steps_per_beat = static_cast<int>(std::ceil(T / options_.dt - 1e-9));
+  const int max_rows = steps_per_beat / options_.output_every + 2;
+  const int n_channels = static_cast<int>(result.trajectory.channels.size());
+  Eigen::VectorXd times(max_rows);
+  Eigen::MatrixXd values(max_rows, n_channels);
+
+  State state = initial_state(theta);
+  Eigen::VectorXd beat_start = state.x;
+  for (int beat = 0; beat < options_.max_beats; ++beat) {
+    const double t0 = beat * T, t_end = (beat + 1) * T;
+    int rows = 0, step = 0;
+    times(rows) = 0.0;
+    values.row(rows++) = sample(state, theta).transpose();
+    while (state.time < t_end) {
+      const double t1 = next_time(state.time, t_end, options_.dt, T);
+      const Status st =
+          step_to(state, theta, t1, &result.info.newton_iterations, &result.info.step_cuts);
+      if (!st.ok()) {
+        result.status = st;
+        result.info.beats = beat + 1;
+        result.trajectory.times = times.head(rows);
+        result.trajectory.values = values.topRows(rows);
+        return result;
+      }
+      ++step;
+      if (step % options_.output_every == 0 || state.time >= t_end) {
+        times(rows) = (state.time >= t_end) ? T : state.time - t0;
+        values.row(rows++) = sample(state, theta).transpose();
+      }
+    }
+    state.time = t_end;
+    result.info.beats = beat + 1;
+
+    // Beat-to-beat change of volume and pressures at the beat start.
+    const Eigen::VectorXd& x = state.x;
+    const double V_new = cavity_volume(m, x(kY)), V_old = cavity_volume(m, beat_start(kY));
+    double change = std::abs(V_new - V_old) / V_old;
+    for (int k : {static_cast<int>(kPv), static_cast<int>(kPar), static_cast<int>(kPd)}) {
+      change = std::max(change, std::abs(x(k) - beat_start(k)) /
+                                    std::max(std::abs(beat_start(k)), 1e3));
+    }
+    result.info.periodicity_change = change;
+    beat_start = x;
+
+    if (beat + 1 >= options_.min_beats && change <= options_.periodic_tolerance) {
+      result.trajectory.times = times.head(rows);
+      result.trajectory.values = values.topRows(rows);
+      return result;
+    }
+    if (beat + 1 == options_.max_beats) {
+      result.trajectory.times = times.head(rows);
+      result.trajectory.values = values.topRows(rows);
+    }
+  }
+  std::ostringstream s;
+  s << "not periodic after " << options_.max_beats << " beats: beat-to-beat change "
+    << result.info.periodicity_change << " > " << options_.periodic_tolerance;
+  result.status = Status::Error(StatusCode::kNotPeriodic, s.str());
+  return result;
+}
+
+}  // namespace sigmaheart::model::lumped

@@ -1,0 +1,90 @@
+#include "model/circulation/circulation.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace sigmaheart::model::circulation {
+namespace {
+
+TEST(ValveFlow, IsContinuousAtBothValveThresholds) {
+  const CirculationParameters c;
+  const double P_at = 1e3, P_ar = 1e4, eps = 1e-6;
+  for (double P : {P_at, P_ar}) {
+    const ValveFlow below = valve_flow(P - eps, P_ar, P_at, c);
+    const ValveFlow above = valve_flow(P + eps, P_ar, P_at, c);
+    EXPECT_NE(below.regime, above.regime);
+    EXPECT_NEAR(below.q, above.q, 1e-12);
+    EXPECT_NEAR(below.q_ar, above.q_ar, 1e-12);
+    EXPECT_NEAR(below.q_at, above.q_at, 1e-12);
+  }
+  // Conservation: ventricular outflow = aortic flow - mitral inflow, in every regime.
+  for (double P : {500.0, 5e3, 1.2e4}) {
+    const ValveFlow f = valve_flow(P, P_ar, P_at, c);
+    EXPECT_NEAR(f.q, f.q_ar - f.q_at, 1e-15);
+  }
+  EXPECT_NEAR(valve_flow(1.2e4, P_ar, P_at, c).q_ar, c.K_ar * 2e3, 1e-15);
+  EXPECT_NEAR(valve_flow(500.0, P_ar, P_at, c).q_at, c.K_at * 500.0, 1e-15);
+}
+
+TEST(ValveFlow, DerivativesMatchFiniteDifferencesInEveryRegime) {
+  const CirculationParameters c;
+  const double P_at = 1e3, P_ar = 1e4, d = 1e-2;
+  for (double P : {500.0, 5e3, 1.2e4}) {
+    const ValveFlow f = valve_flow(P, P_ar, P_at, c);
+    const auto qv = [&](double pv, double par) { return valve_flow(pv, par, P_at, c); };
+    EXPECT_NEAR(f.dq_dPv, (qv(P + d, P_ar).q - qv(P - d, P_ar).q) / (2 * d), 1e-15);
+    EXPECT_NEAR(f.dq_dPar, (qv(P, P_ar + d).q - qv(P, P_ar - d).q) / (2 * d), 1e-15);
+    EXPECT_NEAR(f.dqar_dPv, (qv(P + d, P_ar).q_ar - qv(P - d, P_ar).q_ar) / (2 * d), 1e-15);
+    EXPECT_NEAR(f.dqar_dPar, (qv(P, P_ar + d).q_ar - qv(P, P_ar - d).q_ar) / (2 * d), 1e-15);
+  }
+}
+
+TEST(Phase, ClosedValvesAreContractionAfterFillingAndRelaxationAfterEjection) {
+  EXPECT_EQ(static_cast<int>(phase(ValveRegime::kFilling, ValveRegime::kEjection)), 0);
+  EXPECT_EQ(static_cast<int>(phase(ValveRegime::kClosed, ValveRegime::kFilling)), 1);
+  EXPECT_EQ(static_cast<int>(phase(ValveRegime::kEjection, ValveRegime::kFilling)), 2);
+  EXPECT_EQ(static_cast<int>(phase(ValveRegime::kClosed, ValveRegime::kEjection)), 3);
+}
+
+TEST(AtrialPressure, KicksOnceABeatJustBeforeDepolarisation) {
+  AtrialPressure a;
+  a.P_at0 = 1e3;
+  a.P_at_kick = 500.0;
+  a.kick_duration = 0.1;
+  a.period = 0.8;
+  EXPECT_DOUBLE_EQ(a(0.3), 1e3);
+  EXPECT_NEAR(a(0.75), 1.5e3, 1e-9);            // middle of [0.7, 0.8)
+  EXPECT_NEAR(a(0.75 + 3 * 0.8), 1.5e3, 1e-6);  // periodic
+  EXPECT_NEAR(a(0.8), 1e3, 1e-9);               // continuous at the beat start
+  EXPECT_NEAR(a(0.7999999), 1e3, 1e-6 * 500.0 + 1e-3);
+}
+
+// Backward Euler on a constant inflow converges to the steady state
+// P_d = P_sv + q R_d, P_ar = P_d + q R_p (two resistances in series).
+TEST(Windkessel, SettlesAtTheResistiveSteadyStateForConstantFlow) {
+  const CirculationParameters c;
+  const double q = 1e-4, h = 1e-2;
+  double P_ar = 0.0, P_d = 0.0;
+  for (int n = 0; n < 5000; ++n) {
+    // The two residuals are linear: one 2x2 solve per step.
+    const WindkesselResidual r0 = windkessel_residual(P_ar, P_d, P_ar, P_d, q, h, c);
+    const double det = r0.dar_dPar * r0.dd_dPd - r0.dar_dPd * r0.dd_dPar;
+    const double dPar = (-r0.r_ar * r0.dd_dPd + r0.dar_dPd * r0.r_d) / det;
+    const double dPd = (-r0.dar_dPar * r0.r_d + r0.dd_dPar * r0.r_ar) / det;
+    P_ar += dPar;
+    P_d += dPd;
+  }
+  EXPECT_NEAR(P_d, c.P_sv + q * c.R_d, 1e-6 * P_d);
+  EXPECT_NEAR(P_ar, c.P_sv + q * (c.R_d + c.R_p), 1e-6 * P_ar);
+}
+
+TEST(CirculationParameters, ValidateNamesTheBadField) {
+  CirculationParameters c;
+  EXPECT_EQ(c.validate(), "");
+  c.C_p = 0.0;
+  EXPECT_NE(c.validate().find("C_p"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace sigmaheart::model::circulation

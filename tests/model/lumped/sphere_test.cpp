@@ -1,0 +1,334 @@
+#include "model/lumped/sphere.h"
+
+#include "model/units.h"
+#include "tests/model/simulator_contract.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <numbers>
+#include <string>
+
+namespace sigmaheart::model::lumped {
+namespace {
+
+using units::kMilliLitre;
+using units::kMmHg;
+using sigmaheart::testing::SimulatorContract;
+
+// Beat indices from a trajectory (a tiny local helper; the real observers live in observers/).
+struct Indices {
+  double edv = 0, esv = 0, ef = 0, sv = 0;  // [mL], [mL], [%], [mL]
+  double p_max = 0, dpdt_max = 0, edp = 0, esp = 0;  // [mmHg], [mmHg/s], [mmHg], [mmHg]
+};
+
+Indices indices(const Trajectory& tr) {
+  const Eigen::VectorXd V = tr.channel("V_lv") / kMilliLitre;
+  const Eigen::VectorXd P = tr.channel("P_lv") / kMmHg;
+  Indices ix;
+  Eigen::Index i_ed = 0, i_es = 0;
+  ix.edv = V.maxCoeff(&i_ed);
+  ix.esv = V.minCoeff(&i_es);
+  ix.sv = ix.edv - ix.esv;
+  ix.ef = 100.0 * ix.sv / ix.edv;
+  ix.p_max = P.maxCoeff();
+  ix.edp = P(i_ed);
+  ix.esp = P(i_es);
+  for (int k = 1; k < tr.samples(); ++k) {
+    ix.dpdt_max = std::max(ix.dpdt_max, (P(k) - P(k - 1)) / (tr.times(k) - tr.times(k - 1)));
+  }
+  return ix;
+}
+
+ParameterSpace with(ParameterSpace space, const std::map<std::string, double>& values) {
+  for (const auto& [name, value] : values) space.set_nominal(name, value);
+  return space;
+}
+
+// The heart-failure preset (configs/heart-failure.yaml lists the same values): dilated (R0 up,
+// d0 down), stiffer tissue, lower contractility, raised filling pressure and afterload.
+ParameterSpace heart_failure_parameters() {
+  return with(LumpedSphere::default_parameters(),
+              {{"R0", 3.0e-2}, {"d0", 1.1e-2}, {"c1", 200.0}, {"c2", 300.0}, {"c_exp", 800.0},
+               {"sigma0", 4.5e4}, {"P_at0", 2130.0}, {"P_at_kick", 267.0}, {"R_d", 1.1e8}});
+}
+
+RunResult run_with(const ParameterSpace& space, SphereOptions options = {}) {
+  LumpedSphere sim(options, space);
+  return sim.run(space.nominal());
+}
+
+// ---------------------------------------------------------------------------------------------
+INSTANTIATE_TEST_SUITE_P(
+    LumpedSphere, SimulatorContract,
+    ::testing::Values(sigmaheart::testing::ContractCase{
+        "default", [] { return std::make_unique<LumpedSphere>(); }, 0.1, 0.3, 0.05}));
+
+TEST(LumpedSphere, DeclaresEveryParameterWithUnitBoundsAndSource) {
+  const auto space = LumpedSphere::default_parameters();
+  for (const char* name : {"rho", "R0", "d0", "c1", "c2", "eta", "Es", "mu", "alpha", "k0",
+                           "sigma0", "k_ATP", "k_RS", "APD", "period", "K_at", "K_ar", "K_p",
+                           "R_p", "R_d", "C_p", "C_d", "P_sv", "P_at0", "P_at_kick", "C_cav",
+                           "n0_slope", "n0_e_max", "c_exp", "b_exp"}) {
+    const auto i = space.index(name);
+    ASSERT_TRUE(i.has_value()) << name;
+    const auto& p = space[*i];
+    EXPECT_FALSE(p.unit.empty()) << name;
+    EXPECT_FALSE(p.doc.empty()) << name;
+    EXPECT_TRUE(std::isfinite(p.lower) && std::isfinite(p.upper)) << name;
+  }
+  EXPECT_EQ(space.size(), 30);
+  EXPECT_EQ(LumpedSphere().state_layout().size(), 9u);
+}
+
+TEST(LumpedSphere, HealthyPresetLandsInHealthyRanges) {
+  const RunResult r = run_with(LumpedSphere::default_parameters());
+  ASSERT_TRUE(r.status.ok()) << r.status.message;
+  const Indices ix = indices(r.trajectory);
+  EXPECT_GT(ix.edv, 120.0);
+  EXPECT_LT(ix.edv, 170.0);
+  EXPECT_GT(ix.ef, 55.0);
+  EXPECT_LT(ix.ef, 70.0);
+  EXPECT_GT(ix.p_max, 110.0);
+  EXPECT_LT(ix.p_max, 130.0);
+  EXPECT_GT(ix.dpdt_max, 1200.0);
+  EXPECT_LT(ix.dpdt_max, 2000.0);
+  EXPECT_GT(ix.edp, 5.0);
+  EXPECT_LT(ix.edp, 12.0);
+  EXPECT_LE(r.info.periodicity_change, 1e-3);
+  EXPECT_EQ(r.info.step_cuts, 0);
+  // The beat goes through the four phases in order (0 -> 1 -> 2 -> 3 -> 0).
+  const Eigen::VectorXd ph = r.trajectory.channel("phase");
+  int transitions = 0;
+  for (int k = 1; k < ph.size(); ++k) {
+    if (ph(k) != ph(k - 1)) {
+      ++transitions;
+      EXPECT_EQ(static_cast<int>(ph(k)), (static_cast<int>(ph(k - 1)) + 1) % 4) << "at " << k;
+    }
+  }
+  EXPECT_EQ(transitions, 4);
+}
+
+TEST(LumpedSphere, HeartFailurePresetLandsInFailureRanges) {
+  const RunResult r = run_with(heart_failure_parameters());
+  ASSERT_TRUE(r.status.ok()) << r.status.message;
+  const Indices ix = indices(r.trajectory);
+  EXPECT_GT(ix.edv, 200.0);
+  EXPECT_LT(ix.edv, 300.0);
+  EXPECT_GT(ix.ef, 15.0);
+  EXPECT_LT(ix.ef, 35.0);
+  EXPECT_LT(ix.dpdt_max, 1000.0);
+  EXPECT_LT(ix.p_max, 110.0);
+  EXPECT_GT(ix.edp, 15.0);
+  EXPECT_LT(ix.edp, 25.0);
+}
+
+// Frank-Starling at the organ level: more preload, more stroke volume. It needs the optional
+// length-dependent activation (n0_slope > 0, see model/bcs/active_law.h); the classical n0 = 1
+// gives a flat stroke volume (measured 88.5, 87.7, 86.1 mL for P_at0 = 850, 950, 1050 Pa).
+TEST(LumpedSphere, HigherPreloadGivesLargerStrokeVolumeWithLengthDependentActivation) {
+  const auto base = with(LumpedSphere::default_parameters(),
+                         {{"n0_slope", 2.0}, {"n0_e_max", 0.3}, {"sigma0", 7e4}});
+  const RunResult lo = run_with(base);
+  const RunResult hi = run_with(with(base, {{"P_at0", 1.05e3}}));
+  ASSERT_TRUE(lo.status.ok() && hi.status.ok());
+  const Indices a = indices(lo.trajectory), b = indices(hi.trajectory);
+  EXPECT_GT(b.edv, a.edv + 5.0);
+  EXPECT_GT(b.sv, a.sv + 3.0) << "SV " << a.sv << " -> " << b.sv << " mL";  // measured +5.1
+  EXPECT_NEAR(a.ef, 59.1, 3.0);
+}
+
+TEST(LumpedSphere, HigherAfterloadRaisesEndSystolicPressure) {
+  const auto base = LumpedSphere::default_parameters();
+  const RunResult lo = run_with(base);
+  const RunResult hi = run_with(with(base, {{"R_d", 2e8}}));
+  ASSERT_TRUE(lo.status.ok() && hi.status.ok());
+  const Indices a = indices(lo.trajectory), b = indices(hi.trajectory);
+  // Measured: ESP 120.4 -> 124.8 mmHg, peak 123.9 -> 127.9 mmHg, SV 87.7 -> 53.9 mL. With n0 = 1
+  // the end-systolic pressure-volume relation is flat, so afterload mostly costs stroke volume.
+  EXPECT_GT(b.esp, a.esp + 3.0) << "ESP " << a.esp << " -> " << b.esp << " mmHg";
+  EXPECT_GT(b.p_max, a.p_max + 2.5);
+  EXPECT_LT(b.sv, a.sv - 20.0) << "SV " << a.sv << " -> " << b.sv << " mL";
+}
+
+TEST(LumpedSphere, ViscousDissipationIsNeverNegative) {
+  const RunResult r = run_with(LumpedSphere::default_parameters());
+  ASSERT_TRUE(r.status.ok());
+  const Eigen::VectorXd w = r.trajectory.channel("viscous_power");
+  EXPECT_GE(w.minCoeff(), 0.0);
+  EXPECT_GT(w.maxCoeff(), 1.0);  // [W/m^3]: the wall does move viscously during the beat
+}
+
+// Passive inflation: without activation (sigma0 = k0 = 0) and at a constant atrial pressure, the
+// shell started from its unloaded radius settles at the static solution of the balance equation,
+// P = (d0/R0) Sigma_pas(C) / (1 + y/R0), Sigma_pas = 2 dW/dC, computed here by bisection.
+TEST(LumpedSphere, PassiveInflationSettlesAtTheStaticBalance) {
+  const double P = 800.0;
+  auto space = with(LumpedSphere::default_parameters(),
+                    {{"sigma0", 0.0}, {"k0", 0.0}, {"P_at0", P}, {"P_at_kick", 0.0},
+                     {"K_at", 1e-5}});  // fast filling: relaxation time compliance/K_at ~ 0.03 s
+  LumpedSphere sim({}, space);
+  const Eigen::VectorXd theta = space.nominal();
+  State s = sim.initial_state(theta);
+  s.x(0) = 0.0;        // unloaded radius
+  s.x(5) = 0.0;        // contractile element at rest
+  ASSERT_TRUE(sim.advance(s, theta, 3.0).ok());
+
+  const double R0 = space[*space.index("R0")].nominal, d0 = space[*space.index("d0")].nominal;
+  const double c1 = space[*space.index("c1")].nominal, c2 = space[*space.index("c2")].nominal;
+  const double ce = space[*space.index("c_exp")].nominal, be = space[*space.index("b_exp")].nominal;
+  auto balance = [&](double y) {
+    const double st = 1.0 + y / R0, C = st * st;
+    const double g = 1.0 - std::pow(C, -3), I = 2.0 * C + 1.0 / (C * C) - 3.0;
+    const double Sigma = 4.0 * g * (c1 + C * c2) + 8.0 * be * ce * I * g * std::exp(be * I * I);
+    return d0 / R0 * Sigma / st - P;
+  };
+  double lo = 0.0, hi = 3.0 * R0;
+  for (int i = 0; i < 100; ++i) ((balance(0.5 * (lo + hi)) < 0) ? lo : hi) = 0.5 * (lo + hi);
+  const double y_static = 0.5 * (lo + hi);
+  EXPECT_NEAR(s.x(0), y_static, 1e-6 * R0);
+  EXPECT_NEAR(s.x(2), P, 1e-3 * P);
+  EXPECT_NEAR(sim.sample(s, theta)(12), 0.0, 1.0);  // no active stress [Pa]
+}
+
+// Energy balance of a passive inflation from the unloaded radius (sigma0 = k0 = 0): the work
+// of the cavity pressure, sum P^{n+1} (V^{n+1} - V^n), equals the elastic energy stored in the wall
+// (W = c1 (J1 - 3) + c2 (J2 - 3) + c_exp (exp(b_exp (J1 - 3)^2) - 1) per unit reference volume
+// 4 pi R0^2 d0) plus the physical
+// dissipation (passive viscosity and the contractile-element viscosity, through sigma_act de)
+// plus the numerical dissipation of backward Euler, which must be >= 0 and first order in dt.
+double passive_inflation_numerical_dissipation(double dt, double* physical) {
+  const double P = 800.0;
+  auto space = with(LumpedSphere::default_parameters(),
+                    {{"sigma0", 0.0}, {"k0", 0.0}, {"P_at0", P}, {"P_at_kick", 0.0}});
+  SphereOptions o;
+  o.dt = dt;
+  LumpedSphere sim(o, space);
+  const Eigen::VectorXd theta = space.nominal();
+  State s = sim.initial_state(theta);
+  s.x(0) = 0.0;
+  s.x(5) = 0.0;
+  const double R0 = theta(*space.index("R0")), d0 = theta(*space.index("d0"));
+  const double c1 = theta(*space.index("c1")), c2 = theta(*space.index("c2"));
+  const double wall = 4.0 * std::numbers::pi * R0 * R0 * d0;
+  Eigen::VectorXd prev = sim.sample(s, theta);
+  double work = 0.0, dissipated = 0.0;
+  const int steps = static_cast<int>(std::lround(0.5 / dt));
+  for (int n = 1; n <= steps; ++n) {
+    EXPECT_TRUE(sim.advance(s, theta, n * dt).ok());
+    const Eigen::VectorXd now = sim.sample(s, theta);
+    work += now(1) * (now(0) - prev(0));
+    dissipated += wall * (dt * now(13) + now(12) * (now(8) - prev(8)));
+    prev = now;
+  }
+  const double C = 1.0 + 2.0 * prev(8);
+  const double c_exp = theta(*space.index("c_exp")), b_exp = theta(*space.index("b_exp"));
+  const double J1 = 2.0 * C + 1.0 / (C * C) - 3.0;  // J1 - 3
+  const double stored = wall * (c1 * J1 + c2 * (C * C + 2.0 / C - 3.0) +
+                                c_exp * (std::exp(b_exp * J1 * J1) - 1.0));
+  const double kinetic = 0.5 * theta(*space.index("rho")) * wall * s.x(1) * s.x(1);
+  *physical = dissipated;
+  return work - stored - kinetic - dissipated;
+}
+
+TEST(LumpedSphere, BackwardEulerDissipatesEnergyAtFirstOrder) {
+  double phys1 = 0.0, phys2 = 0.0;
+  const double num1 = passive_inflation_numerical_dissipation(1e-3, &phys1);
+  const double num2 = passive_inflation_numerical_dissipation(0.5e-3, &phys2);
+  EXPECT_GT(phys1, 0.0);
+  EXPECT_GE(num1, 0.0);
+  EXPECT_GE(num2, 0.0);
+  EXPECT_LT(num1, 0.05 * phys1) << "numerical " << num1 << " J, physical " << phys1 << " J";
+  EXPECT_NEAR(std::log2(num1 / num2), 1.0, 0.3) << num1 << " " << num2;
+}
+
+// Backward Euler is first order: the error at a fixed time halves with dt.
+TEST(LumpedSphere, TimeStepperConvergesAtFirstOrder) {
+  const auto space = LumpedSphere::default_parameters();
+  const Eigen::VectorXd theta = space.nominal();
+  auto state_at = [&](double dt, double t) {
+    SphereOptions o;
+    o.dt = dt;
+    LumpedSphere sim(o, space);
+    State s = sim.initial_state(theta);
+    EXPECT_TRUE(sim.advance(s, theta, t).ok());
+    return sim.sample(s, theta);
+  };
+  const double t = 0.2;  // mid-ejection of the first beat
+  const Eigen::VectorXd ref = state_at(1.0 / 64e3, t);
+  double errors[4];
+  const double dts[4] = {4e-3, 2e-3, 1e-3, 0.5e-3};
+  for (int i = 0; i < 4; ++i) {
+    const Eigen::VectorXd x = state_at(dts[i], t);
+    errors[i] = std::max(std::abs(x(0) - ref(0)) / ref(0), std::abs(x(2) - ref(2)) / ref(2));
+  }
+  for (int i = 0; i + 1 < 4; ++i) {
+    const double order = std::log2(errors[i] / errors[i + 1]);
+    EXPECT_NEAR(order, 1.0, 0.25) << "dt " << dts[i] << " -> " << dts[i + 1] << ", errors "
+                                  << errors[i] << " " << errors[i + 1];
+  }
+  EXPECT_LT(errors[2], 2e-2);  // dt = 1 ms: V and P_ar within 2 % at mid-ejection
+}
+
+TEST(LumpedSphere, AdvanceLandsExactlyOnAnOffGridEndTime) {
+  LumpedSphere sim;
+  const Eigen::VectorXd theta = sim.parameters().nominal();
+  State s = sim.initial_state(theta);
+  ASSERT_TRUE(sim.advance(s, theta, 0.12345).ok());
+  EXPECT_EQ(s.time, 0.12345);
+  ASSERT_TRUE(sim.advance(s, theta, 0.2).ok());
+  EXPECT_EQ(s.time, 0.2);
+  // The off-grid stop costs one extra step only: the state stays within first-order error.
+  State straight = sim.initial_state(theta);
+  ASSERT_TRUE(sim.advance(straight, theta, 0.2).ok());
+  EXPECT_NEAR(s.x(3), straight.x(3), 1e-3 * straight.x(3));
+}
+
+TEST(LumpedSphere, NewtonFailureIsReportedAsDiverged) {
+  SphereOptions o;
+  o.newton_max_iterations = 1;
+  o.newton_tolerance = 1e-15;
+  LumpedSphere sim(o);
+  const RunResult r = sim.run(sim.parameters().nominal());
+  EXPECT_EQ(r.status.code, StatusCode::kDiverged);
+  EXPECT_NE(r.status.message.find("t ="), std::string::npos) << r.status.message;
+}
+
+TEST(LumpedSphere, UnsettledBeatIsReportedAsNotPeriodic) {
+  SphereOptions o;
+  o.min_beats = 1;
+  o.max_beats = 2;
+  o.periodic_tolerance = 1e-12;
+  LumpedSphere sim(o);
+  const RunResult r = sim.run(sim.parameters().nominal());
+  EXPECT_EQ(r.status.code, StatusCode::kNotPeriodic);
+  EXPECT_EQ(r.info.beats, 2);
+  EXPECT_GT(r.info.periodicity_change, 1e-12);
+  EXPECT_GT(r.trajectory.samples(), 800);  // the last beat is still returned
+}
+
+TEST(LumpedSphere, ReturnsTheLastBeatOnZeroToPeriod) {
+  LumpedSphere sim;
+  const RunResult r = sim.run(sim.parameters().nominal());
+  ASSERT_TRUE(r.status.ok());
+  EXPECT_EQ(r.trajectory.times(0), 0.0);
+  EXPECT_DOUBLE_EQ(r.trajectory.times(r.trajectory.samples() - 1), 0.85);
+  EXPECT_EQ(r.trajectory.samples(), 851);
+  // Periodic: the first and last samples agree to the periodicity tolerance.
+  const Eigen::VectorXd V = r.trajectory.channel("V_lv");
+  EXPECT_NEAR(V(0), V(V.size() - 1), 1e-3 * V(0));
+}
+
+TEST(SphereOptions, ValidateNamesTheBadField) {
+  SphereOptions o;
+  EXPECT_EQ(o.validate(), "");
+  o.dt = -1.0;
+  EXPECT_NE(o.validate().find("dt"), std::string::npos);
+  LumpedSphere sim(o);
+  const RunResult r = sim.run(sim.parameters().nominal());
+  EXPECT_EQ(r.status.code, StatusCode::kInvalidArgument);
+}
+
+}  // namespace
+}  // namespace sigmaheart::model::lumped
