@@ -1,7 +1,23 @@
-// Ensembles of independent forward evaluations (sigma points, designs), serial or on threads.
-// Each worker owns its own clone of the forward model; nothing mutable is shared, so the numbers
-// do not depend on the backend or the thread count (ARCHITECTURE.md, "Parallelism").
+// Ensembles of independent forward evaluations (sigma points, designs), serial, on threads or
+// on MPI ranks. Each worker owns its own clone of the forward model; nothing mutable is shared, so
+// the numbers do not depend on the backend, the thread count or the rank count (ARCHITECTURE.md,
+// "Parallelism").
+//
+// Failures: a member whose forward model returns a non-ok Status, throws, or returns non-finite
+// z gets a non-ok Status and a NaN row; the ensemble itself never throws for a member's failure.
+// Exceptions thrown by a member are turned into StatusCode::kInvalidArgument with the message
+// "exception: <what()>" (the contract has no dedicated code for them); non-finite output becomes
+// kNonFinite.
+//
+// MPI (Backend::kMpi, needs SIGMAHEART_HAVE_MPI and an active MpiSession, estimation/mpi.h):
+// every rank runs the same estimator code and calls evaluate()/map_rows() collectively with the
+// same arguments; members are split into contiguous blocks over ranks (and statically over the
+// threads of a rank); rows and statuses are exchanged with MPI_Allgatherv so every rank returns
+// identical results. When MPI is not active, kMpi behaves as one rank. With several ranks per
+// node set `threads` explicitly (0 means all cores in every rank).
 #pragma once
+
+#include "estimation/mpi.h"
 
 #include "model/simulator.h"
 
@@ -33,9 +49,11 @@ std::optional<Backend> parse_backend(const std::string& text);  // "serial", "th
 
 struct EnsembleOptions {
   Backend backend = Backend::kThreads;
-  int threads = 0;  // 0: all cores (omp_get_max_threads)
-  // Called on the calling thread's behalf (serialised) after each finished member.
+  int threads = 0;  // kThreads and kMpi (threads per rank); 0: all cores (omp_get_max_threads)
+  // Called (serialised, possibly from a worker thread) after each finished member. Under kMpi
+  // each rank reports its own members: done and total count this rank's share.
   std::function<void(int done, int total)> progress;
+  // Empty when valid; kMpi without MPI compiled in is an error.
   std::string validate() const;
 };
 
@@ -57,8 +75,19 @@ class Ensemble {
   // Generic form for estimators with their own member task (the ROUKF advances model states):
   // task(member, worker) runs once per member, worker in [0, workers()), each worker on one thread
   // at a time. Member order is the static schedule, so results written per member are identical
-  // for any thread count.
+  // for any thread count. If tasks throw, the exception of the lowest member index is rethrown
+  // after all members ran. Under kMpi every rank runs all members (results stay in the caller's
+  // memory, so they cannot be distributed); use map_rows() to spread members over ranks.
   void for_each(int members, const std::function<void(int member, int worker)>& task);
+
+  // Distributed form (added for the ROUKF and others): task(member, worker, row) fills row
+  // (width entries, initialised to NaN) and returns a Status. Returns members x width rows and
+  // statuses; rows of failed members are NaN. Exceptions and non-finite rows become Statuses as
+  // in evaluate(). Under kMpi the members are spread over ranks and gathered on every rank.
+  EnsembleResult map_rows(
+      int members, int width,
+      const std::function<model::Status(int member, int worker, Eigen::Ref<Eigen::VectorXd> row)>&
+          task);
 
   ForwardModel& worker_model(int worker);
 

@@ -155,6 +155,7 @@ def pv_loop(f, volume, pressure, phase):
             label=f"end-systole ({v[es]:.0f} {v_unit}, {p[es]:.0f} {p_unit})")
     ax.set_xlabel(f"LV volume [{v_unit}]")
     ax.set_ylabel(f"LV pressure [{p_unit}]")
+    ax.set_ylim(bottom=min(0.0, float(np.min(p))))
     ax.set_title(title_of(f, "Pressure-volume loop"))
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2, fontsize=8)
     add_summary_box(f, ax)
@@ -224,3 +225,5 @@ def plot_file(path: str, out_dir: str | None = None) -> List[str]:
             known = ", ".join(sorted(PLOTTERS))
             raise ValueError(f"{path}: no plots for results of kind '{kind}' (known: {known})")
         return PLOTTERS[kind](f, out_dir, stem)
+import sigmaplot_studies  # noqa: E402,F401  (registers the "sensitivity" and "specificity" plots)
+import sigmaplot_regional  # noqa: E402,F401  (registers the "personalize" plots)

@@ -18,6 +18,8 @@
 // advance() step on the same points and every beat ends exactly at a multiple of the period.
 #include "model/lumped/sphere.h"
 
+#include "model/lumped/shell.h"
+
 #include "model/bcs/active_law.h"
 #include "model/circulation/circulation.h"
 
@@ -35,113 +37,34 @@ namespace {
 
 namespace circ = sigmaheart::model::circulation;
 
-// Parameter order of default_parameters(); LumpedSphere maps names to these slots.
+// Parameter order of default_parameters() (the shell's globals with sigma0 after k0).
 enum P : int {
   kRho, kR0, kD0, kC1, kC2, kEta, kEs, kMu, kAlpha, kK0, kSigma0, kKATP, kKRS, kAPD, kPeriod,
   kKat, kKar, kKp, kRp, kRd, kCp, kCd, kPsv, kPat0, kPatKick, kCcav, kN0Slope, kN0Emax,
   kCexp, kBexp, kNumParams
 };
-const char* const kNames[kNumParams] = {
-    "rho",  "R0",     "d0",   "c1",  "c2",  "eta", "Es",  "mu",  "alpha", "k0",
-    "sigma0", "k_ATP", "k_RS", "APD", "period", "K_at", "K_ar", "K_p", "R_p", "R_d",
-    "C_p",  "C_d",    "P_sv", "P_at0", "P_at_kick", "C_cav", "n0_slope", "n0_e_max",
-    "c_exp", "b_exp"};
 
-// State layout (state_layout() documents it with units).
-enum X : int { kY, kV, kPv, kPar, kPd, kEc, kKc, kTc, kLastOpen, kStateSize };
+// State layout (state_layout() documents it with units): the shell's five entries, then the
+// active state, then the diagnostic flag.
+using shell::kY, shell::kV, shell::kPv, shell::kPar, shell::kPd;
+enum X : int { kEc = 5, kKc, kTc, kLastOpen, kStateSize };
 constexpr int kUnknowns = 8;  // kY..kTc; kLastOpen is a diagnostic flag, not an unknown
 using Vec = Eigen::Matrix<double, kUnknowns, 1>;
+using shell::kPref, shell::kVref;
+using shell::cavity_volume, shell::passive_stress;
 
-// Scales that make the Newton rows dimensionless (tolerance is on these scaled rows).
-constexpr double kPref = 1e3;   // [Pa]
-constexpr double kVref = 1e-6;  // [m^3] (1 mL)
-constexpr int kMaxCuts = 8;     // step halvings before giving up (dt / 256)
-
-struct Model {
-  double rho, R0, d0, c1, c2, c_exp, b_exp, eta, period;
-  bcs::ActiveParameters act;
-  circ::CirculationParameters circ;
-  circ::AtrialPressure atrial;
-};
-
+// The shell with its one contractility; index = shell::global_indices() then sigma0.
+using Model = shell::Shell;
 Model unpack(const Eigen::Ref<const Eigen::VectorXd>& theta, const std::vector<int>& idx) {
-  auto at = [&](int k) { return theta(idx[static_cast<size_t>(k)]); };
-  Model m;
-  m.rho = at(kRho);
-  m.R0 = at(kR0);
-  m.d0 = at(kD0);
-  m.c1 = at(kC1);
-  m.c2 = at(kC2);
-  m.c_exp = at(kCexp);
-  m.b_exp = at(kBexp);
-  m.eta = at(kEta);
-  m.period = at(kPeriod);
-  m.act.Es = at(kEs);
-  m.act.mu = at(kMu);
-  m.act.alpha = at(kAlpha);
-  m.act.k0 = at(kK0);
-  m.act.sigma0 = at(kSigma0);
-  m.act.k_ATP = at(kKATP);
-  m.act.k_RS = at(kKRS);
-  m.act.APD = at(kAPD);
-  m.act.n0_slope = at(kN0Slope);
-  m.act.n0_e_max = at(kN0Emax);
-  m.circ.K_at = at(kKat);
-  m.circ.K_ar = at(kKar);
-  m.circ.K_p = at(kKp);
-  m.circ.R_p = at(kRp);
-  m.circ.R_d = at(kRd);
-  m.circ.C_p = at(kCp);
-  m.circ.C_d = at(kCd);
-  m.circ.P_sv = at(kPsv);
-  m.circ.C_cav = at(kCcav);
-  m.atrial.P_at0 = at(kPat0);
-  m.atrial.P_at_kick = at(kPatKick);
-  m.atrial.period = m.period;
+  Model m = shell::unpack(theta, idx);
+  m.act.sigma0 = theta(idx.back());
   return m;
 }
 
-// Passive stress of the sphere, Sigma = 2 dW/dC, and its derivative in C (MODELS.md s.2):
-// Mooney-Rivlin W = c1 (J1 - 3) + c2 (J2 - 3) plus the exponential stiffening named as the
-// alternative in MODELS.md s.2, W_exp = c_exp (exp(b_exp (J1 - 3)^2) - 1), J1 = 2C + C^-2.
-// Alone, Mooney-Rivlin gives an end-diastolic pressure-volume curve that flattens at large
-// volumes (P ~ linear in R), which makes the filling volume ill-determined; the exponential term
-// gives the steep, physiological end-diastolic curve.
-inline void passive_stress(const Model& m, double C, double& S, double& dS_dC) {
-  const double iC = 1.0 / C, iC3 = iC * iC * iC;
-  const double g = 1.0 - iC3;  // dJ1/dC = 2 g
-  S = 4.0 * g * (m.c1 + C * m.c2);
-  dS_dC = 4.0 * (3.0 * iC3 * iC * (m.c1 + C * m.c2) + g * m.c2);
-  if (m.c_exp > 0.0) {
-    const double I = 2.0 * C + iC * iC - 3.0;
-    const double E = std::exp(m.b_exp * I * I);
-    const double k = 8.0 * m.b_exp * m.c_exp;
-    S += k * I * g * E;
-    dS_dC += k * E * (2.0 * g * g + 3.0 * I * iC3 * iC + 4.0 * m.b_exp * I * I * g * g);
-  }
-}
-
-inline double cavity_volume(const Model& m, double y) {
-  const double R = m.R0 + y;
-  return 4.0 / 3.0 * std::numbers::pi * R * R * R;
-}
-
-// Static passive balance (d0/R0) s Sigma_pas(C) = P s^2 for y (bisection: robust, one call/run).
-double static_radius_offset(const Model& m, double P) {
-  auto f = [&](double y) {
-    const double s = 1.0 + y / m.R0;
-    double S = 0.0, dS = 0.0;
-    passive_stress(m, s * s, S, dS);
-    return m.d0 / m.R0 * s * S - P * s * s;
-  };
-  // f(0) = -P <= 0 and the passive stress grows with y: bracket the root in [0, hi].
-  double lo = 0.0, hi = 0.5 * m.R0;
-  while (f(hi) < 0.0 && hi < 10.0 * m.R0) hi *= 2.0;
-  for (int i = 0; i < 200 && hi - lo > 1e-15 * m.R0; ++i) {
-    const double mid = 0.5 * (lo + hi);
-    (f(mid) < 0.0 ? lo : hi) = mid;
-  }
-  return 0.5 * (lo + hi);
+// Name of parameter slot i (P): the shell's global names with sigma0 inserted at kSigma0.
+std::string name_of(int i) {
+  if (i == kSigma0) return "sigma0";
+  return shell::global_names()[static_cast<size_t>(i < kSigma0 ? i : i - 1)];
 }
 
 // One backward-Euler step from xo over [t0, t0 + h]. Three of the eight equations are linear in
@@ -259,17 +182,6 @@ int newton_step(const Model& m, const Vec& xo, double t0, double t1, const Spher
   return -1;
 }
 
-// The next point of the beat-local grid after t (see the file comment), capped at t_end.
-double next_time(double t, double t_end, double dt, double period) {
-  const double b = std::floor(t / period + 1e-12);
-  const double local = t - b * period;
-  double next = b * period + (std::floor(local / dt + 1e-9) + 1.0) * dt;
-  const double beat_end = (b + 1.0) * period;
-  if (next > beat_end - 1e-6 * dt) next = beat_end;
-  if (next > t_end - 1e-6 * dt) next = t_end;
-  return next;
-}
-
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
@@ -291,7 +203,7 @@ ParameterSpace LumpedSphere::default_parameters() {
   // working set of MODELS.md s.2; [T] tuned so that the healthy beat meets MODELS.md s.7.
   std::vector<Parameter> p(kNumParams);
   auto set = [&](int i, const char* unit, double nominal, double lo, double hi, const char* doc) {
-    p[static_cast<size_t>(i)] = Parameter{kNames[i], unit, nominal, lo, hi, doc};
+    p[static_cast<size_t>(i)] = Parameter{name_of(i), unit, nominal, lo, hi, doc};
   };
   set(kRho, "kg/m^3", 1e3, 500.0, 2000.0, "wall density; tissue ~ water [C14]");
   set(kR0, "m", 2.4e-2, 5e-3, 6e-2, "reference (unloaded) sphere radius [C14 working set]");
@@ -338,22 +250,13 @@ LumpedSphere::LumpedSphere(SphereOptions options)
 
 LumpedSphere::LumpedSphere(SphereOptions options, ParameterSpace parameters)
     : options_(options), parameters_(std::move(parameters)) {
-  index_.resize(kNumParams);
-  for (int i = 0; i < kNumParams; ++i) {
-    index_[static_cast<size_t>(i)] = parameters_.index_or_throw(kNames[i]);
-  }
+  index_ = shell::global_indices(parameters_);
+  index_.push_back(parameters_.index_or_throw("sigma0"));
 }
 
 std::vector<Channel> LumpedSphere::channels() const {
-  return {
-      {"V_lv", "m^3", "left-ventricular cavity volume 4/3 pi R^3"},
-      {"P_lv", "Pa", "left-ventricular pressure P_v"},
-      {"P_ar", "Pa", "proximal arterial (aortic) pressure"},
-      {"P_at", "Pa", "prescribed atrial pressure"},
-      {"q_ar", "m^3/s", "aortic-valve flow, > 0 into the artery"},
-      {"q_at", "m^3/s", "mitral-valve flow, > 0 into the ventricle"},
-      {"phase", "1", "0 filling, 1 isovolumic contraction, 2 ejection, 3 isovolumic relaxation"},
-      {"P_d", "Pa", "distal arterial pressure"},
+  std::vector<Channel> c = shell::circulation_channels();
+  c.insert(c.end(), {
       {"e_fibre", "1", "fibre Green-Lagrange strain e = (C - 1)/2"},
       {"e_c", "1", "contractile-element strain"},
       {"k_c", "Pa", "active stiffness"},
@@ -361,22 +264,19 @@ std::vector<Channel> LumpedSphere::channels() const {
       {"sigma_act", "Pa", "active fibre stress Es (e - e_c)/(1 + 2 e_c)^2"},
       {"viscous_power", "W/m^3",
        "passive viscous dissipation per unit reference wall volume, Sigma_vis (dC/dt)/2 >= 0"},
-  };
+  });
+  return c;
 }
 
 std::vector<Channel> LumpedSphere::state_layout() const {
-  return {
-      {"y", "m", "radial displacement of the mid-wall, R = R0 + y"},
-      {"dy_dt", "m/s", "radial velocity"},
-      {"P_v", "Pa", "ventricular pressure"},
-      {"P_ar", "Pa", "proximal arterial pressure"},
-      {"P_d", "Pa", "distal arterial pressure"},
+  std::vector<Channel> s = shell::state_head();
+  s.insert(s.end(), {
       {"e_c", "1", "contractile-element strain"},
       {"k_c", "Pa", "active stiffness"},
       {"tau_c", "Pa", "contractile-element active stress"},
-      {"last_open_valve", "1",
-       "0 mitral or 2 aortic: the valve open last; only labels the closed phases (1 or 3)"},
-  };
+      shell::last_open_valve_entry(),
+  });
+  return s;
 }
 
 std::unique_ptr<Simulator> LumpedSphere::clone() const {
@@ -384,25 +284,9 @@ std::unique_ptr<Simulator> LumpedSphere::clone() const {
 }
 
 Status LumpedSphere::check_theta(const Eigen::Ref<const Eigen::VectorXd>& theta) const {
-  if (theta.size() != parameters_.size()) {
-    std::ostringstream s;
-    s << "theta has " << theta.size() << " entries, expected " << parameters_.size();
-    return Status::Error(StatusCode::kInvalidArgument, s.str());
-  }
-  if (const std::string msg = parameters_.check(theta); !msg.empty()) {
-    return Status::Error(StatusCode::kOutOfBounds, msg);
-  }
-  if (const std::string msg = options_.validate(); !msg.empty()) {
-    return Status::Error(StatusCode::kInvalidArgument, "SphereOptions: " + msg);
-  }
+  if (theta.size() != parameters_.size()) return shell::check_theta(parameters_, options_, theta, 0, 1);
   const Model m = unpack(theta, index_);
-  if (m.act.APD >= m.period) {
-    return Status::Error(StatusCode::kOutOfBounds, "APD must be shorter than the period");
-  }
-  if (options_.dt > m.period) {
-    return Status::Error(StatusCode::kInvalidArgument, "dt is longer than the heart period");
-  }
-  return Status::Ok();
+  return shell::check_theta(parameters_, options_, theta, m.act.APD, m.period);
 }
 
 State LumpedSphere::initial_state(const Eigen::Ref<const Eigen::VectorXd>& theta) {
@@ -413,18 +297,9 @@ State LumpedSphere::initial_state(const Eigen::Ref<const Eigen::VectorXd>& theta
     s.x.setConstant(std::numeric_limits<double>::quiet_NaN());
     return s;
   }
-  const Model m = unpack(theta, index_);
-  // Relaxed ventricle in static passive equilibrium with the atrial pressure at t = 0, the
-  // contractile element at rest (e_c = e, no active stress), arteries at a typical diastolic
-  // pressure (the periodic loop then settles within a few beats).
-  const double P0 = m.atrial(0.0);
-  const double y = static_radius_offset(m, P0);
-  const double s1 = 1.0 + y / m.R0;
-  s.x(kY) = y;
-  s.x(kPv) = P0;
-  s.x(kPar) = std::max(P0, 75.0 * 133.322);
-  s.x(kPd) = std::max(P0, 70.0 * 133.322);
-  s.x(kEc) = 0.5 * (s1 * s1 - 1.0);
+  // Relaxed (shell::fill_relaxed_state), the contractile element at rest (e_c = e, no active
+  // stress).
+  s.x(kEc) = shell::fill_relaxed_state(unpack(theta, index_), s.x);
   s.x(kLastOpen) = static_cast<double>(circ::ValveRegime::kFilling);
   return s;
 }
@@ -432,69 +307,17 @@ State LumpedSphere::initial_state(const Eigen::Ref<const Eigen::VectorXd>& theta
 Status LumpedSphere::step_to(State& state, const Eigen::Ref<const Eigen::VectorXd>& theta,
                              double t_end, int* newton_iterations, int* step_cuts) const {
   const Model m = unpack(theta, index_);
-  const double dt = options_.dt;
-  Vec x = state.x.head<kUnknowns>();
-  double last_open = state.x(kLastOpen);
-  double t = state.time;
-  while (t < t_end) {
-    const double t1 = next_time(t, t_end, dt, m.period);
-    // Try the whole step, then halves, quarters... (sub-steps land exactly on t1).
-    Vec xn = x;
-    bool done = false;
-    for (int cut = 0; cut <= kMaxCuts && !done; ++cut) {
-      const int n = 1 << cut;
-      Vec xs = x;
-      bool ok = true;
-      for (int k = 0; k < n && ok; ++k) {
-        const double ta = t + (t1 - t) * k / n;
-        const double tb = (k + 1 == n) ? t1 : t + (t1 - t) * (k + 1) / n;
-        Vec xk;
-        const int its = newton_step(m, xs, ta, tb, options_, xk);
-        if (its < 0) {
-          ok = false;
-        } else {
-          xs = xk;
-          if (newton_iterations) *newton_iterations += its;
-        }
-      }
-      if (ok) {
-        xn = xs;
-        done = true;
-        if (cut > 0 && step_cuts) *step_cuts += cut;
-      }
-    }
-    if (!done || !xn.allFinite()) {
-      state.x.head<kUnknowns>() = x;
-      state.x(kLastOpen) = last_open;
-      state.time = t;
-      std::ostringstream s;
-      s << "Newton did not converge at t = " << t1 << " s after " << kMaxCuts
-        << " step halvings (V = " << cavity_volume(m, x(kY)) * 1e6 << " mL, P_v = " << x(kPv)
-        << " Pa)";
-      return Status::Error(xn.allFinite() ? StatusCode::kDiverged : StatusCode::kNonFinite,
-                           s.str());
-    }
-    const auto regime = circ::valve_flow(xn(kPv), xn(kPar), m.atrial(t1), m.circ).regime;
-    if (regime != circ::ValveRegime::kClosed) last_open = static_cast<double>(regime);
-    x = xn;
-    t = t1;
-  }
-  state.x.head<kUnknowns>() = x;
-  state.x(kLastOpen) = last_open;
-  state.time = t_end;
-  return Status::Ok();
+  auto step = [&](const Vec& xo, double ta, double tb, Vec& xn) {
+    return newton_step(m, xo, ta, tb, options_, xn);
+  };
+  return shell::step_with_cuts<Vec>(state, m, options_.dt, t_end, step, newton_iterations,
+                                    step_cuts);
 }
 
 Status LumpedSphere::advance(State& state, const Eigen::Ref<const Eigen::VectorXd>& theta,
                              double t_end) {
   if (Status st = check_theta(theta); !st.ok()) return st;
-  if (state.x.size() != kStateSize) {
-    return Status::Error(StatusCode::kInvalidArgument, "state has the wrong size");
-  }
-  if (!state.x.allFinite()) return Status::Error(StatusCode::kNonFinite, "state is not finite");
-  if (!(t_end >= state.time)) {
-    return Status::Error(StatusCode::kInvalidArgument, "t_end lies before the state time");
-  }
+  if (Status st = shell::check_advance(state, kStateSize, t_end); !st.ok()) return st;
   return step_to(state, theta, t_end, nullptr, nullptr);
 }
 
@@ -519,75 +342,16 @@ Eigen::VectorXd LumpedSphere::sample(const State& state,
 }
 
 RunResult LumpedSphere::run(const Eigen::Ref<const Eigen::VectorXd>& theta) {
-  RunResult result;
-  result.trajectory.channels = channels();
   if (Status st = check_theta(theta); !st.ok()) {
+    RunResult result;
+    result.trajectory.channels = channels();
     result.status = st;
     return result;
   }
-  const Model m = unpack(theta, index_);
-  const double T = m.period;
-  result.info.period = T;
-
-  const int steps_per_beat = static_cast<int>(std::ceil(T / options_.dt - 1e-9));
-  const int max_rows = steps_per_beat / options_.output_every + 2;
-  const int n_channels = static_cast<int>(result.trajectory.channels.size());
-  Eigen::VectorXd times(max_rows);
-  Eigen::MatrixXd values(max_rows, n_channels);
-
-  State state = initial_state(theta);
-  Eigen::VectorXd beat_start = state.x;
-  for (int beat = 0; beat < options_.max_beats; ++beat) {
-    const double t0 = beat * T, t_end = (beat + 1) * T;
-    int rows = 0, step = 0;
-    times(rows) = 0.0;
-    values.row(rows++) = sample(state, theta).transpose();
-    while (state.time < t_end) {
-      const double t1 = next_time(state.time, t_end, options_.dt, T);
-      const Status st =
-          step_to(state, theta, t1, &result.info.newton_iterations, &result.info.step_cuts);
-      if (!st.ok()) {
-        result.status = st;
-        result.info.beats = beat + 1;
-        result.trajectory.times = times.head(rows);
-        result.trajectory.values = values.topRows(rows);
-        return result;
-      }
-      ++step;
-      if (step % options_.output_every == 0 || state.time >= t_end) {
-        times(rows) = (state.time >= t_end) ? T : state.time - t0;
-        values.row(rows++) = sample(state, theta).transpose();
-      }
-    }
-    state.time = t_end;
-    result.info.beats = beat + 1;
-
-    // Beat-to-beat change of volume and pressures at the beat start.
-    const Eigen::VectorXd& x = state.x;
-    const double V_new = cavity_volume(m, x(kY)), V_old = cavity_volume(m, beat_start(kY));
-    double change = std::abs(V_new - V_old) / V_old;
-    for (int k : {static_cast<int>(kPv), static_cast<int>(kPar), static_cast<int>(kPd)}) {
-      change = std::max(change, std::abs(x(k) - beat_start(k)) /
-                                    std::max(std::abs(beat_start(k)), 1e3));
-    }
-    result.info.periodicity_change = change;
-    beat_start = x;
-
-    if (beat + 1 >= options_.min_beats && change <= options_.periodic_tolerance) {
-      result.trajectory.times = times.head(rows);
-      result.trajectory.values = values.topRows(rows);
-      return result;
-    }
-    if (beat + 1 == options_.max_beats) {
-      result.trajectory.times = times.head(rows);
-      result.trajectory.values = values.topRows(rows);
-    }
-  }
-  std::ostringstream s;
-  s << "not periodic after " << options_.max_beats << " beats: beat-to-beat change "
-    << result.info.periodicity_change << " > " << options_.periodic_tolerance;
-  result.status = Status::Error(StatusCode::kNotPeriodic, s.str());
-  return result;
+  return shell::run_periodic(
+      unpack(theta, index_), options_, channels(), initial_state(theta),
+      [&](State& s, double t1, int* its, int* cuts) { return step_to(s, theta, t1, its, cuts); },
+      [&](const State& s) { return sample(s, theta); });
 }
 
 }  // namespace sigmaheart::model::lumped

@@ -1,0 +1,320 @@
+#include "app/calibration_setup.h"
+
+#include "app/errors.h"
+#include "app/io/observation_file.h"
+#include "model/units.h"
+#include "observers/composite.h"
+#include "observers/curve_sampler.h"
+#include "observers/global_indices.h"
+#include "observers/observation_builder.h"
+
+#include <cmath>
+#include <sstream>
+
+namespace sigmaheart::app {
+
+namespace {
+
+// Splits "30 %" / "2e4 Pa" / "0.02" into number and unit text.
+std::pair<double, std::string> number_and_unit(const ConfigNode& node) {
+  const std::string text = node.as<std::string>();
+  std::istringstream in(text);
+  double value = 0.0;
+  if (!(in >> value)) node.fail("expected a number with a unit, got '" + text + "'");
+  std::string unit;
+  std::getline(in, unit);
+  const auto b = unit.find_first_not_of(" \t");
+  unit = b == std::string::npos ? std::string{} : unit.substr(b);
+  return {value, unit};
+}
+
+observers::Noise parse_noise_node(const ConfigNode& node) {
+  try {
+    return observers::parse_noise(node.as<std::string>());
+  } catch (const std::invalid_argument& e) {
+    node.fail(std::string("noise: ") + e.what());
+  }
+}
+
+observers::NoiseModel parse_noise_model(const ConfigNode& node) {
+  observers::NoiseModel model;
+  if (!node.defined()) return model;
+  if (!node.is_map()) node.fail("expected a map of observation name -> noise (e.g. 'EDV: 3 mL')");
+  for (const auto& key : node.keys()) {
+    if (key == "default") {
+      model.fallback = parse_noise_node(node[key]);
+    } else {
+      model.by_name[key] = parse_noise_node(node[key]);
+    }
+  }
+  return model;
+}
+
+// Observations from a curve file: indices computed from the curves and/or the curves at frames.
+void parse_file_observations(const Config& config, const ConfigNode& obs,
+                             const std::vector<model::Channel>& sim_channels,
+                             const std::filesystem::path& file_override, CalibrationProblem& out) {
+  const ConfigNode file_node = file_override.empty() ? obs["file"] : obs;
+  std::filesystem::path path =
+      file_override.empty() ? std::filesystem::path(file_node.as<std::string>()) : file_override;
+  if (path.is_relative()) {
+    path = std::filesystem::path(config.file.file()).parent_path() / path;
+  }
+  if (!std::filesystem::exists(path)) {
+    file_node.fail("observation file '" + path.string() + "' does not exist (paths are relative "
+                   "to the config file)");
+  }
+  io::ObservationCurves curves = io::read_observation_csv(path);
+  out.observation_file = path;
+  out.measured = curves.trajectory;
+  out.measured_display_units = curves.display_units;
+
+  const observers::NoiseModel noise = parse_noise_model(obs["noise"]);
+  std::vector<observers::ObservationSet> sets;
+  std::vector<std::unique_ptr<observers::Observer>> parts;
+
+  if (obs.has("indices")) {
+    observers::GlobalIndicesOptions gi;
+    gi.indices = obs["indices"].as<std::vector<std::string>>();
+    if (gi.indices.empty()) obs["indices"].fail("expected at least one index name");
+    try {
+      // The observer reads simulated beats; the measured curves only need the channels in use.
+      parts.push_back(std::make_unique<observers::GlobalIndices>(gi, sim_channels));
+    } catch (const std::invalid_argument& e) {
+      obs["indices"].fail(e.what());
+    }
+    try {
+      sets.push_back(observers::observations_from_indices(*out.measured, gi, noise,
+                                                          curves.display_units));
+    } catch (const std::invalid_argument& e) {
+      file_node.fail(std::string("indices of the measured curves: ") + e.what());
+    }
+  }
+  if (obs.has("curves")) {
+    observers::MeasuredCurveOptions mc;
+    mc.channels = obs["curves"].as<std::vector<std::string>>();
+    // ecg: the file's times are times after the ECG trigger (the beat's electrical onset), as
+    // gated cine MRI records them. end-diastole: both curves are aligned on their end-diastole
+    // instead (for curves exported without trigger times; noisier, as ED is found from the data).
+    const std::string align =
+        obs.has("align") ? obs["align"].as_choice({"ecg", "end-diastole"}) : std::string("ecg");
+    mc.alignment_channel = align == "ecg" ? std::string{} : std::string("V_lv");
+    if (mc.channels.empty()) obs["curves"].fail("expected at least one channel name");
+    observers::CurveObservations co;
+    try {
+      co = observers::observations_from_curves(*out.measured, mc, noise, curves.display_units);
+    } catch (const std::invalid_argument& e) {
+      file_node.fail(std::string("curves: ") + e.what());
+    }
+    try {
+      parts.push_back(std::make_unique<observers::CurveSampler>(co.sampler, sim_channels));
+    } catch (const std::invalid_argument& e) {
+      obs["curves"].fail(e.what());
+    }
+    sets.push_back(std::move(co.observations));
+  }
+  if (parts.empty()) {
+    obs.fail("observations from a file need 'indices:' and/or 'curves:' (what to compare)");
+  }
+  try {
+    out.observations = observers::concatenate(sets);
+  } catch (const std::invalid_argument& e) {
+    obs.fail(e.what());
+  }
+  if (parts.size() == 1) {
+    out.observer = std::move(parts.front());
+  } else {
+    out.observer = std::make_unique<observers::CompositeObserver>(std::move(parts));
+  }
+}
+
+// Typed-in indices: `values: {EDV: {value: 142 mL, noise: 5 mL}}`.
+void parse_inline_observations(const ConfigNode& obs,
+                               const std::vector<model::Channel>& sim_channels,
+                               CalibrationProblem& out) {
+  const ConfigNode values = obs["values"];
+  if (!values.is_map()) values.fail("expected a map of index name -> {value, noise}");
+  std::vector<observers::ObservationEntry> entries;
+  std::vector<std::string> names;
+  for (const auto& key : values.keys()) {
+    const ConfigNode e = values[key];
+    e.check_keys({"value", "noise"});
+    observers::ObservationEntry entry;
+    entry.name = key;
+    std::tie(entry.value, entry.unit) = number_and_unit(e.require_child("value"));
+    entry.noise = parse_noise_node(e.require_child("noise"));
+    entries.push_back(entry);
+    names.push_back(key);
+  }
+  try {
+    out.observations = observers::observations_from_entries(entries);
+  } catch (const std::invalid_argument& e) {
+    values.fail(e.what());
+  }
+  observers::GlobalIndicesOptions gi;
+  gi.indices = names;
+  try {
+    out.observer = std::make_unique<observers::GlobalIndices>(gi, sim_channels);
+  } catch (const std::invalid_argument& e) {
+    values.fail(e.what());
+  }
+}
+
+estimation::CalibrationParameter parse_estimated(const Config& config, const std::string& name,
+                                                 const ConfigNode& node, std::string& unit) {
+  const auto& space = config.simulator.parameters;
+  const auto index = space.index(name);
+  if (!index) {
+    std::string msg = "unknown parameter '" + name + "' for model " + config.simulator.model;
+    const auto guess = model::closest_match(name, space.names());
+    if (!guess.empty()) msg += " (did you mean '" + guess + "'?)";
+    throw InputError(node.location(), msg);
+  }
+  const model::Parameter& p = space[*index];
+  unit = p.unit;
+  node.check_keys({"prior", "spread", "transform", "bounds"});
+
+  estimation::CalibrationParameter c;
+  c.name = name;
+  c.prior_mean = node.optional_quantity("prior", p.unit, p.nominal);
+  if (c.prior_mean < p.lower || c.prior_mean > p.upper) {
+    std::ostringstream s;
+    s << "prior of '" << name << "' = " << c.prior_mean << " " << p.unit
+      << " lies outside the parameter's bounds [" << p.lower << ", " << p.upper << "]";
+    node["prior"].fail(s.str());
+  }
+
+  const ConfigNode spread = node.require_child("spread");
+  const auto [value, spread_unit] = number_and_unit(spread);
+  if (!(value > 0)) spread.fail("expected a positive spread");
+  if (spread_unit == "%") {
+    c.spread_kind = estimation::SpreadKind::kRelative;
+    c.prior_spread = value / 100.0;
+  } else if (spread_unit == "eta") {
+    c.spread_kind = estimation::SpreadKind::kEta;
+    c.prior_spread = value;
+  } else if (spread_unit.empty()) {
+    spread.fail("write the spread as a percentage of the prior ('30 %'), in the parameter's unit "
+                "('2e4 " + p.unit + "'), or in the transformed coordinate ('0.3 eta')");
+  } else {
+    c.spread_kind = estimation::SpreadKind::kAbsolute;
+    if (spread_unit == p.unit) {
+      c.prior_spread = value;
+    } else {
+      try {
+        c.prior_spread = model::units::convert(value, spread_unit, p.unit);
+      } catch (const std::invalid_argument& e) {
+        spread.fail(std::string("spread: ") + e.what() + " (parameter unit: " + p.unit + ")");
+      }
+    }
+  }
+
+  const std::string kind_text =
+      node.has("transform") ? node["transform"].as_choice({"identity", "log", "logit"}) : "log";
+  c.transform.kind = *estimation::parse_transform_kind(kind_text);
+  if (c.transform.kind == estimation::TransformKind::kLog) {
+    if (!(c.prior_mean > 0)) node.fail("a log transform needs a positive prior");
+    c.transform.reference = c.prior_mean;
+  } else if (c.transform.kind == estimation::TransformKind::kLogit) {
+    std::vector<double> b = {p.lower, p.upper};
+    if (node.has("bounds")) {
+      b = node["bounds"].as<std::vector<double>>();
+      if (b.size() != 2) node["bounds"].fail("expected [lower, upper]");
+    }
+    if (!std::isfinite(b[0]) || !std::isfinite(b[1]) || b[0] >= b[1]) {
+      node.fail("a logit transform needs finite bounds lower < upper (give 'bounds: [lo, hi]')");
+    }
+    if (b[0] < p.lower || b[1] > p.upper) {
+      node["bounds"].fail("bounds must lie inside the parameter's own bounds");
+    }
+    c.transform.lower = b[0];
+    c.transform.upper = b[1];
+    if (!(c.prior_mean > b[0] && c.prior_mean < b[1])) {
+      node.fail("the prior must lie strictly inside the logit bounds");
+    }
+  }
+  const std::string problem = c.validate();
+  if (!problem.empty()) node.fail(problem);
+  return c;
+}
+
+estimation::UtOptions parse_ut_options(const ConfigNode& node) {
+  estimation::UtOptions o;
+  node.check_keys({"sigma_points", "kappa", "alpha", "beta", "mode", "max_iterations", "tolerance",
+                   "inflation", "sample_scale", "failure_policy", "shrink_factor", "max_retries",
+                   "threads"});
+  if (node.has("sigma_points")) {
+    o.sigma.rule = *estimation::parse_sigma_rule(
+        node["sigma_points"].as_choice({"simplex", "canonical", "star", "scaled"}));
+  }
+  o.sigma.kappa = node.optional<double>("kappa", o.sigma.kappa);
+  o.sigma.alpha = node.optional<double>("alpha", o.sigma.alpha);
+  o.sigma.beta = node.optional<double>("beta", o.sigma.beta);
+  if (node.has("mode")) {
+    o.mode = *estimation::parse_ut_mode(
+        node["mode"].as_choice({"one-shot", "iterate-keep-spread", "iterate-inflate"}));
+  }
+  o.max_iterations = node.optional<int>("max_iterations", o.mode == estimation::UtMode::kOneShot ? 1 : 6);
+  o.tolerance = node.optional<double>("tolerance", o.tolerance);
+  o.inflation = node.optional<double>("inflation", o.inflation);
+  o.sample_scale = node.optional<double>("sample_scale", o.sample_scale);
+  if (node.has("failure_policy")) {
+    o.failure_policy = *estimation::parse_ut_failure_policy(
+        node["failure_policy"].as_choice({"abort", "shrink-and-retry"}));
+  }
+  o.shrink_factor = node.optional<double>("shrink_factor", o.shrink_factor);
+  o.max_retries = node.optional<int>("max_retries", o.max_retries);
+  o.ensemble.threads = node.optional<int>("threads", 0);
+  return o;
+}
+
+}  // namespace
+
+CalibrationProblem parse_calibration_problem(const Config& config,
+                                             const std::filesystem::path& observation_file) {
+  const ConfigNode root = config.file.root();
+  CalibrationProblem out;
+  const auto sim = config.simulator.make();
+  const auto sim_channels = sim->channels();
+
+  const ConfigNode obs = root.require_child("observations");
+  obs.check_keys({"file", "indices", "curves", "align", "noise", "values"});
+  const bool from_file = obs.has("file") || !observation_file.empty();
+  if (from_file == obs.has("values")) {
+    obs.fail("give either 'file:' (measured curves) or 'values:' (typed-in indices), not both");
+  }
+  if (from_file) {
+    parse_file_observations(config, obs, sim_channels, observation_file, out);
+  } else {
+    parse_inline_observations(obs, sim_channels, out);
+  }
+  const std::string consistent = observers::check_consistent(*out.observer, out.observations);
+  if (!consistent.empty()) obs.fail(consistent);
+  const std::string valid = out.observations.validate();
+  if (!valid.empty()) obs.fail(valid);
+
+  const ConfigNode est = root.require_child("estimate");
+  if (!est.is_map() || est.size() == 0) {
+    est.fail("expected a map of parameter name -> {prior, spread, transform}");
+  }
+  for (const auto& name : est.keys()) {
+    std::string unit;
+    out.parameters.push_back(parse_estimated(config, name, est[name], unit));
+    out.parameter_units.push_back(unit);
+  }
+
+  const ConfigNode cal = root["calibration"];
+  out.options = parse_ut_options(cal);
+  const std::string problem = out.options.validate(static_cast<int>(out.parameters.size()));
+  if (!problem.empty()) cal.fail(problem);
+  return out;
+}
+
+void register_calibration_sections() {
+  register_config_section({"observations", [](const Config& c) { parse_calibration_problem(c); }});
+  // The three sections are parsed together; checking one checks all.
+  register_config_section({"estimate", [](const Config&) {}});
+  register_config_section({"calibration", [](const Config&) {}});
+}
+
+}  // namespace sigmaheart::app

@@ -1,0 +1,60 @@
+// The calibration problem of a config: which observations (a curve file or typed-in indices, and
+// their noise), which parameters (prior, spread, transform) and which estimator options. Parsed
+// and validated here, in one place, for `calibrate`, `specificity` and `validate`.
+//
+//   observations:
+//     file: data/volunteer03.csv        # relative to the config; header `name [unit]`, one row per frame
+//     indices: [EDV, ESV, EF, P_max, dPdt_max, dVdt_min]   # computed from the curves like the simulated ones
+//     curves: [V_lv]                    # optional: the curves themselves at the measured frames
+//     align: ecg                        # frame times are after the ECG trigger (default), or end-diastole
+//     noise: {EDV: 3 mL, ESV: 3 mL, EF: 0.02, P_max: 3 mmHg, V_lv: 3 mL, default: 5 %}
+//   # or, without a file:
+//   #  values: {EDV: {value: 142 mL, noise: 5 mL}, EF: {value: 58 %, noise: 0.02}}
+//   estimate:
+//     sigma0: {prior: 1.0e5, spread: 30 %, transform: log}      # prior defaults to the config value
+//     R_p:    {spread: "1.0e7 Pa s/m^3", transform: logit, bounds: [1.0e6, 2.0e8]}
+//   calibration:
+//     sigma_points: simplex      # simplex | canonical | star | scaled (kappa, alpha, beta)
+//     mode: iterate-keep-spread  # one-shot | iterate-keep-spread | iterate-inflate (inflation)
+//     max_iterations: 6
+//     tolerance: 1.0e-3          # on the largest step in prior standard deviations
+//     failure_policy: shrink-and-retry   # or abort (shrink_factor, max_retries)
+#pragma once
+
+#include "app/config.h"
+#include "estimation/ut_calibration.h"
+#include "observers/observer.h"
+
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace sigmaheart::app {
+
+struct CalibrationProblem {
+  // The measured curves when the observations came from a file (SI), with the units the file used.
+  std::optional<model::Trajectory> measured;
+  std::vector<std::string> measured_display_units;
+  std::filesystem::path observation_file;
+
+  observers::ObservationSet observations;          // SI, display units kept
+  std::unique_ptr<observers::Observer> observer;   // same names and order as observations
+  std::vector<estimation::CalibrationParameter> parameters;
+  std::vector<std::string> parameter_units;        // SI unit of each estimated parameter
+  estimation::UtOptions options;
+};
+
+// Parses `observations:`, `estimate:` and `calibration:` of a config whose simulator section is
+// already parsed. Every problem is an InputError at the offending key (file:line:column).
+// observation_file, when not empty, replaces `observations.file` (a cohort study calibrates every
+// case with one config; relative paths are taken relative to the config file, like the key's).
+CalibrationProblem parse_calibration_problem(const Config& config,
+                                             const std::filesystem::path& observation_file = {});
+
+// Registers the three sections with the config loader (so `validate` checks them and root-level
+// typos are caught). Called by the commands that use them.
+void register_calibration_sections();
+
+}  // namespace sigmaheart::app

@@ -1,0 +1,111 @@
+#include "app/cli.h"
+
+#include "app/commands/commands.h"
+#include "app/errors.h"
+#include "app/io/results.h"
+
+#include <CLI/CLI.hpp>
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+
+#include <exception>
+#include <filesystem>
+
+namespace sigmaheart::app {
+
+namespace {
+
+const char* kFooter = R"(Exit codes:
+  0  success
+  1  runtime failure (a simulation failed, an output file could not be written)
+  2  bad input (config or data file, unknown key, parameter out of bounds, bad option)
+
+Results (HDF5) go to results/<config>-<command>.h5 unless -o is given; `scripts/plot RESULT.h5`
+draws them. Curves and indices are in clinical units (mL, mmHg, s), parameters in SI.)";
+
+// Logs go to stderr so that stdout carries only results.
+void setup_logging(const std::string& level) {
+  if (!spdlog::get("sigmaheart")) {
+    auto logger = spdlog::stderr_color_mt("sigmaheart");
+    logger->set_pattern("[%H:%M:%S.%e] [%^%l%$] %v");
+    spdlog::set_default_logger(logger);
+  }
+  spdlog::set_level(spdlog::level::from_str(level));
+}
+
+std::string join_command_line(int argc, const char* const* argv) {
+  std::string s;
+  for (int i = 0; i < argc; ++i) {
+    std::string a = argv[i];
+    if (a.find_first_of(" \t\"'") != std::string::npos) a = "'" + a + "'";
+    s += (i ? " " : "") + a;
+  }
+  return s;
+}
+
+}  // namespace
+
+int run_cli(int argc, const char* const* argv, std::ostream& out, std::ostream& err) {
+  CommandContext ctx{out, err, join_command_line(argc, argv), {}};
+  CLI::App app{"sigmaheart: personalise Bestel-Clement-Sorine heart models from clinical data",
+               "sigmaheart"};
+  app.footer(kFooter);
+  app.set_version_flag("--version", "sigmaheart " + io::version() + " (" + io::git_describe() + ")");
+  std::string log_level = "info";
+  app.add_option("--log-level", log_level, "Log verbosity on stderr")
+      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "critical", "off"}))
+      ->capture_default_str();
+  app.require_subcommand(1);
+  app.fallthrough();  // --log-level may also follow the subcommand
+
+  register_simulate(app, ctx);
+  register_validate(app, ctx);
+  register_params(app, ctx);
+  register_calibrate(app, ctx);
+  register_synthesize(app, ctx);
+  register_sensitivity(app, ctx);
+  register_specificity(app, ctx);
+  register_personalize(app, ctx);
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e, out, err);
+    return code == 0 ? kExitOk : kExitBadInput;
+  }
+
+  try {
+    setup_logging(log_level);
+    return ctx.run ? ctx.run() : kExitOk;
+  } catch (const InputError& e) {
+    err << "error: " << e.what() << "\n";
+    return kExitBadInput;
+  } catch (const RunFailure& e) {
+    err << "error: " << e.what() << "\n";
+    return kExitRuntimeFailure;
+  } catch (const std::exception& e) {
+    err << "error: " << e.what() << "\n";
+    return kExitRuntimeFailure;
+  }
+}
+
+int run_cli(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  std::vector<const char*> argv = {"sigmaheart"};
+  for (const auto& a : args) argv.push_back(a.c_str());
+  return run_cli(static_cast<int>(argv.size()), argv.data(), out, err);
+}
+
+void add_set_option(CLI::App& sub, std::vector<std::string>& overrides) {
+  sub.add_option("--set", overrides,
+                 "Override a config value: a parameter (sigma0=1.5e5, P_at0='8 mmHg'), "
+                 "numerics.<key>=value, or a full dotted path; repeatable")
+      ->type_name("KEY=VALUE")
+      ->allow_extra_args(false);
+}
+
+std::filesystem::path default_output_path(const std::filesystem::path& config,
+                                          const std::string& kind) {
+  return std::filesystem::path("results") / (config.stem().string() + "-" + kind + ".h5");
+}
+
+}  // namespace sigmaheart::app

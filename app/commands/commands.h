@@ -1,0 +1,55 @@
+// The subcommands of `sigmaheart`. Each command file defines register_<name>(app, ctx), which adds
+// its subcommand and options to `app` and, when that subcommand is chosen, sets ctx.run to the
+// work to do; cli.cpp calls every register function once. A new command (calibrate,
+// sensitivity, personalize, benchmark) adds one declaration here, one call in cli.cpp and its
+// source in app/CMakeLists.txt.
+//
+// Commands report bad input by throwing InputError (exit code 2) and failed work by throwing
+// RunFailure (exit code 1); ctx.run returns the exit code otherwise (normally 0).
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include <filesystem>
+#include <functional>
+#include <ostream>
+#include <string>
+#include <vector>
+
+namespace sigmaheart::app {
+
+struct CommandContext {
+  std::ostream& out;          // results and tables (stdout)
+  std::ostream& err;          // errors (stderr); logs go through spdlog
+  std::string command_line;   // the whole invocation, for provenance
+  std::function<int()> run;   // set by the chosen subcommand
+};
+
+void register_simulate(CLI::App& app, CommandContext& ctx);
+void register_validate(CLI::App& app, CommandContext& ctx);
+void register_params(CLI::App& app, CommandContext& ctx);
+void register_calibrate(CLI::App& app, CommandContext& ctx);
+void register_synthesize(CLI::App& app, CommandContext& ctx);
+void register_sensitivity(CLI::App& app, CommandContext& ctx);
+void register_specificity(CLI::App& app, CommandContext& ctx);
+void register_personalize(CLI::App& app, CommandContext& ctx);
+
+// Helpers shared by the commands ---------------------------------------------------------------
+
+// Adds the repeatable `--set key=value` option (see expand_override_key in config.h).
+void add_set_option(CLI::App& sub, std::vector<std::string>& overrides);
+// results/<config-stem>-<kind>.h5 (relative to the working directory).
+std::filesystem::path default_output_path(const std::filesystem::path& config,
+                                          const std::string& kind);
+
+// `sigmaheart simulate`: one forward run of the configured simulator.
+struct SimulateOptions {
+  std::filesystem::path config;
+  std::filesystem::path output;   // empty: default_output_path(config, "simulate")
+  std::filesystem::path csv;      // empty: no CSV
+  std::filesystem::path summary;  // empty: no JSON summary
+  std::vector<std::string> overrides;            // "key=value"
+};
+int run_simulate(const SimulateOptions& options, CommandContext& ctx);
+
+}  // namespace sigmaheart::app

@@ -1,0 +1,72 @@
+// `sigmaheart params CONFIG`: the parameters of the configured simulator as a table, with the
+// values the config sets (units are the model's SI units; config values may use others).
+#include "app/commands/commands.h"
+#include "app/config.h"
+#include "app/errors.h"
+
+#include <iomanip>
+#include <memory>
+#include <sstream>
+
+namespace sigmaheart::app {
+
+namespace {
+
+struct ParamsOptions {
+  std::filesystem::path config;
+  std::vector<std::string> overrides;
+};
+
+std::string number(double v) {
+  std::ostringstream s;
+  s << std::setprecision(4) << v;
+  return s.str();
+}
+
+int run_params(const ParamsOptions& o, CommandContext& ctx) {
+  const Config config = load_config(o.config, o.overrides);
+  const auto& space = config.simulator.parameters;
+  const std::vector<std::string> header = {"name", "unit", "nominal", "lower", "upper", "from", "doc"};
+  std::vector<std::vector<std::string>> rows;
+  for (int i = 0; i < space.size(); ++i) {
+    const auto& p = space[i];
+    rows.push_back({p.name, p.unit, number(p.nominal), number(p.lower), number(p.upper),
+                    to_string(config.simulator.sources[static_cast<size_t>(i)]), p.doc});
+  }
+  std::vector<size_t> width(header.size());
+  for (size_t c = 0; c < header.size(); ++c) width[c] = header[c].size();
+  for (const auto& r : rows) {
+    for (size_t c = 0; c < r.size(); ++c) width[c] = std::max(width[c], r[c].size());
+  }
+  auto print = [&](const std::vector<std::string>& r) {
+    std::string line;
+    for (size_t c = 0; c < r.size(); ++c) {
+      const bool numeric = c >= 2 && c <= 4;
+      const size_t pad = width[c] - r[c].size();
+      if (c + 1 == r.size()) {
+        line += r[c];
+      } else {
+        line += numeric ? std::string(pad, ' ') + r[c] : r[c] + std::string(pad, ' ');
+        line += "  ";
+      }
+    }
+    ctx.out << line << "\n";
+  };
+  ctx.out << config.name << ": model " << config.simulator.model << ", " << space.size()
+          << " parameters\n";
+  print(header);
+  for (const auto& r : rows) print(r);
+  return kExitOk;
+}
+
+}  // namespace
+
+void register_params(CLI::App& app, CommandContext& ctx) {
+  auto opts = std::make_shared<ParamsOptions>();
+  CLI::App* sub = app.add_subcommand("params", "List the simulator's parameters: unit, value, bounds, doc");
+  sub->add_option("config", opts->config, "Config file (YAML)")->required();
+  add_set_option(*sub, opts->overrides);
+  sub->callback([opts, &ctx] { ctx.run = [opts, &ctx] { return run_params(*opts, ctx); }; });
+}
+
+}  // namespace sigmaheart::app

@@ -1,0 +1,130 @@
+// `sigmaheart simulate CONFIG`: one forward run of the configured simulator with the config's
+// parameter values; the periodic beat, its indices and the provenance go to a results file.
+#include "app/commands/commands.h"
+#include "app/config.h"
+#include "app/errors.h"
+#include "app/io/results.h"
+#include "observers/global_indices.h"
+
+#include <omp.h>
+#include <spdlog/spdlog.h>
+
+
+namespace sigmaheart::app {
+
+namespace {
+
+// The beat's global indices (observers/global_indices.h) in display units (EF in %), then the
+// run's beat-level facts. An index the observer cannot compute is reported and left out.
+std::vector<io::Indicator> simulate_indicators(const model::RunResult& result,
+                                               const std::vector<model::Channel>& channels) {
+  std::vector<io::Indicator> out;
+  try {
+    const observers::GlobalIndices indices({}, channels);
+    Eigen::VectorXd z(indices.size());
+    const model::Status status = indices.observe(result.trajectory, z);
+    if (status.ok()) {
+      const auto outputs = indices.outputs();
+      for (size_t i = 0; i < outputs.size(); ++i) {
+        const double si = z(static_cast<Eigen::Index>(i));
+        if (outputs[i].name == "EF") {
+          out.push_back({"EF", 100.0 * si, "%", "ejection fraction SV / EDV"});
+          continue;
+        }
+        const io::DisplayUnit d = io::display_unit(outputs[i].unit);
+        out.push_back({outputs[i].name, si * d.from_si, d.unit, outputs[i].doc});
+      }
+    } else {
+      spdlog::warn("indices of the simulated beat: {}", status.message);
+    }
+  } catch (const std::invalid_argument& e) {
+    spdlog::warn("indices of the simulated beat: {}", e.what());
+  }
+  out.push_back({"period", result.info.period, "s", "heart period"});
+  out.push_back({"beats", static_cast<double>(result.info.beats), "1",
+                 "beats integrated until the beat was periodic"});
+  out.push_back({"periodicity_change", result.info.periodicity_change, "1",
+                 "max relative beat-to-beat change of the last beat"});
+  return out;
+}
+
+}  // namespace
+
+int run_simulate(const SimulateOptions& o, CommandContext& ctx) {
+  io::Provenance prov;
+  prov.start_utc = io::utc_now();
+  const Config config = load_config(o.config, o.overrides);
+  const std::filesystem::path output = !o.output.empty() ? o.output : default_output_path(o.config, "simulate");
+
+  auto simulator = config.simulator.make();
+  const Eigen::VectorXd theta = config.simulator.parameters.nominal();
+  spdlog::info("simulating '{}' with {} ({} parameters)", config.name, simulator->name(),
+               theta.size());
+  const model::RunResult result = simulator->run(theta);
+  const auto code = result.status.code;
+  if (code == model::StatusCode::kOutOfBounds || code == model::StatusCode::kInvalidArgument) {
+    // The model refused these parameters or numerics before integrating: bad input (exit 2).
+    throw InputError(Location{config.file.file(), 0, 0},
+                     "the simulator rejects this config: " + result.status.message);
+  }
+  if (!result.status.ok()) {
+    throw RunFailure("simulation of '" + config.name + "' failed (" +
+                     model::to_string(result.status.code) + "): " + result.status.message);
+  }
+  spdlog::info("periodic after {} beats (change {:.2e}), {} Newton iterations, {} step cuts",
+               result.info.beats, result.info.periodicity_change, result.info.newton_iterations,
+               result.info.step_cuts);
+  const auto indicators = simulate_indicators(result, simulator->channels());
+
+  prov.kind = "simulate";
+  prov.name = config.name;
+  prov.config_file = config.file.file();
+  prov.config_text = config.file.text();
+  prov.overrides = config.file.overrides();
+  prov.command_line = ctx.command_line;
+  prov.seed = config.seed;
+  prov.threads = omp_get_max_threads();
+  prov.ranks = 1;
+
+  {
+    io::Hdf5Writer h5(output);
+    io::write_parameters(h5, "/parameters", config.simulator.parameters, theta);
+    std::vector<std::string> sources;
+    for (auto s : config.simulator.sources) sources.emplace_back(to_string(s));
+    h5.write_strings("/parameters/source", sources);
+    io::write_trajectory(h5, "/trajectories/simulated", result.trajectory);
+    h5.set_attribute("/trajectories/simulated", "model", simulator->name());
+    h5.set_attribute("/trajectories/simulated", "description",
+                     "the last (periodic) beat, time from its start");
+    io::write_indicators(h5, "/summary", indicators);
+    h5.set_attribute("/summary", "status", model::to_string(result.status.code));
+    h5.set_attribute("/summary", "newton_iterations", result.info.newton_iterations);
+    h5.set_attribute("/summary", "step_cuts", result.info.step_cuts);
+    prov.end_utc = io::utc_now();
+    io::write_provenance(h5, prov);
+    h5.commit();
+  }
+  if (!o.csv.empty()) io::write_trajectory_csv(o.csv, result.trajectory);
+  if (!o.summary.empty()) io::write_indicators_json(o.summary, indicators);
+
+  ctx.out << config.name << " (" << simulator->name() << "): periodic after " << result.info.beats
+          << " beats\n"
+          << io::format_indicators(indicators);
+  ctx.out << "wrote " << output.string() << "\n";
+  if (!o.csv.empty()) ctx.out << "wrote " << o.csv.string() << "\n";
+  if (!o.summary.empty()) ctx.out << "wrote " << o.summary.string() << "\n";
+  return kExitOk;
+}
+
+void register_simulate(CLI::App& app, CommandContext& ctx) {
+  auto opts = std::make_shared<SimulateOptions>();
+  CLI::App* sub = app.add_subcommand("simulate", "Run the configured simulator once and save the beat");
+  sub->add_option("config", opts->config, "Config file (YAML)")->required();
+  sub->add_option("-o,--output", opts->output, "Results file (HDF5); default results/<config>-simulate.h5");
+  sub->add_option("--csv", opts->csv, "Also write the curves as CSV (header 'name [unit]')");
+  sub->add_option("--summary", opts->summary, "Also write the indices as JSON");
+  add_set_option(*sub, opts->overrides);
+  sub->callback([opts, &ctx] { ctx.run = [opts, &ctx] { return run_simulate(*opts, ctx); }; });
+}
+
+}  // namespace sigmaheart::app

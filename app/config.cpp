@@ -1,0 +1,133 @@
+#include "app/config.h"
+
+#include <mutex>
+#include <stdexcept>
+
+namespace sigmaheart::app {
+
+const char* to_string(ValueSource source) {
+  switch (source) {
+    case ValueSource::kDefault: return "default";
+    case ValueSource::kConfig: return "config";
+    case ValueSource::kOverride: return "--set";
+  }
+  return "?";
+}
+
+namespace {
+
+std::vector<ConfigSection>& sections_storage() {
+  static std::vector<ConfigSection> sections = {
+      {"simulator", [](const Config&) {}},  // parsed by load_config itself
+  };
+  return sections;
+}
+
+std::mutex& sections_mutex() {
+  static std::mutex m;
+  return m;
+}
+
+Config parse_common(ConfigFile file, const std::filesystem::path& path) {
+  Config c;
+  const ConfigNode root = file.root();
+  std::vector<std::string> allowed = {"name", "description", "seed"};
+  for (const auto& s : config_sections()) allowed.push_back(s.key);
+  root.check_keys(allowed, "section");
+
+  c.name = root.optional<std::string>("name", path.stem().string());
+  c.description = root.optional<std::string>("description", "");
+  if (root.has("seed")) {
+    const ConfigNode seed = root["seed"];
+    const std::string text = seed.as<std::string>();
+    try {
+      size_t used = 0;
+      if (!text.empty() && text[0] == '-') throw std::invalid_argument("negative");
+      c.seed = std::stoull(text, &used);
+      if (used != text.size()) throw std::invalid_argument("trailing");
+    } catch (const std::exception&) {
+      seed.fail("seed: expected a non-negative integer, got " + seed.describe());
+    }
+  }
+  c.simulator = parse_simulator_section(root.require_child("simulator"));
+  c.file = std::move(file);
+  return c;
+}
+
+Config load_with_overrides(ConfigFile file, const std::filesystem::path& path,
+                           const std::vector<std::string>& overrides) {
+  for (const auto& assignment : overrides) {
+    const bool quote = assignment.find_first_of(" \t") != std::string::npos;
+    const std::string origin = quote ? "--set '" + assignment + "'" : "--set " + assignment;
+    const auto eq = assignment.find('=');
+    if (eq == std::string::npos || eq == 0) {
+      throw InputError(Location{origin, 0, 0}, "expected key=value, e.g. --set sigma0=1.5e5");
+    }
+    file.set(expand_override_key(assignment.substr(0, eq)), assignment.substr(eq + 1), origin);
+  }
+  return parse_common(std::move(file), path);
+}
+
+}  // namespace
+
+void register_config_section(ConfigSection section) {
+  std::lock_guard<std::mutex> lock(sections_mutex());
+  for (auto& s : sections_storage()) {
+    if (s.key == section.key) {
+      s = std::move(section);
+      return;
+    }
+  }
+  sections_storage().push_back(std::move(section));
+}
+
+const std::vector<ConfigSection>& config_sections() { return sections_storage(); }
+
+std::string expand_override_key(const std::string& key) {
+  const auto dot = key.find('.');
+  if (dot == std::string::npos) return "simulator.parameters." + key;
+  const std::string head = key.substr(0, dot);
+  if (head == "numerics" || head == "parameters") return "simulator." + key;
+  return key;
+}
+
+SimulatorSection parse_simulator_section(const ConfigNode& node) {
+  node.check_keys({"model", "numerics", "parameters"});
+  SimulatorSection s;
+  const ConfigNode model_node = node.require_child("model");
+  s.model = model_node.as_choice(simulator_names());
+  const SimulatorEntry* entry = find_simulator(s.model);
+
+  // In the order a config is usually written: numerics, then parameters.
+  s.builder = entry->parse_numerics(node["numerics"]);
+  s.parameters = entry->default_parameters();
+  s.sources.assign(static_cast<size_t>(s.parameters.size()), ValueSource::kDefault);
+
+  const ConfigNode params = node["parameters"];
+  params.check_keys(s.parameters.names(), "parameter", "for model " + s.model);
+  for (const auto& name : params.keys()) {
+    const int i = s.parameters.index_or_throw(name);
+    const ConfigNode value = params[name];
+    const std::string& unit = s.parameters[i].unit;
+    const double v = value.as_quantity(unit);
+    try {
+      s.parameters.set_nominal(name, v);
+    } catch (const std::invalid_argument& e) {
+      value.fail(e.what());
+    }
+    s.sources[static_cast<size_t>(i)] =
+        value.overridden() ? ValueSource::kOverride : ValueSource::kConfig;
+  }
+  return s;
+}
+
+Config load_config(const std::filesystem::path& path, const std::vector<std::string>& overrides) {
+  return load_with_overrides(ConfigFile::load(path), path, overrides);
+}
+
+Config parse_config(const std::string& text, const std::string& file_name,
+                    const std::vector<std::string>& overrides) {
+  return load_with_overrides(ConfigFile::parse(text, file_name), file_name, overrides);
+}
+
+}  // namespace sigmaheart::app

@@ -1,0 +1,80 @@
+// A run config: the sections every config has (name, description, seed, simulator), parsed into
+// typed structs in one place, with `--set` overrides merged first so they are checked exactly
+// like the file. Later commands parse their own sections (observations:, calibration: ...) from
+// Config::file.root() with the ConfigNode calls, and register the section name so that root-level
+// typos are caught and `sigmaheart validate` checks their section too.
+//
+//   name: healthy
+//   description: "..."
+//   seed: 42                                 # optional
+//   simulator:
+//     model: lumped-sphere
+//     numerics: {dt: 1.0e-3, max_beats: 40}
+//     parameters: {sigma0: 1.25e5, P_at0: "8 mmHg"}   # number = value in the parameter's unit
+#pragma once
+
+#include "app/config_node.h"
+#include "app/simulators.h"
+#include "model/simulator.h"
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace sigmaheart::app {
+
+// Where a parameter's nominal value came from.
+enum class ValueSource { kDefault, kConfig, kOverride };
+const char* to_string(ValueSource source);
+
+// `simulator:` section.
+struct SimulatorSection {
+  std::string model;                      // registry name ("lumped-sphere")
+  model::ParameterSpace parameters;       // the model's space, nominal = the values to run
+  std::vector<ValueSource> sources;       // one per parameter
+  SimulatorBuilder builder;               // numerics already parsed and validated
+
+  // A new simulator with these parameters and numerics.
+  std::unique_ptr<model::Simulator> make() const { return builder(parameters); }
+};
+
+struct Config;
+
+// A top-level section that some command reads: its key and a check run by `validate`.
+struct ConfigSection {
+  std::string key;
+  std::function<void(const Config&)> validate;  // parses the section; throws InputError
+};
+// Makes a section name known (commands call this from their register_<name>()); replaces an
+// entry with the same key.
+void register_config_section(ConfigSection section);
+const std::vector<ConfigSection>& config_sections();
+
+struct Config {
+  ConfigFile file;                  // text, tree and overrides: later sections parse from here
+  std::string name;                 // `name:`, else the file stem
+  std::string description;
+  std::optional<std::uint64_t> seed;
+  SimulatorSection simulator;
+};
+
+// Parses `simulator:`. Unknown parameters, bad units and out-of-bounds values are InputErrors at
+// the offending key or value.
+SimulatorSection parse_simulator_section(const ConfigNode& node);
+
+// Reads a config, applies `--set key=value` overrides and parses the common sections.
+// Override keys: a bare parameter name ("sigma0"), "numerics.<key>", "parameters.<name>",
+// or a full dotted path from the top ("simulator.model", "calibration.max_iterations").
+Config load_config(const std::filesystem::path& path, const std::vector<std::string>& overrides = {});
+// The same from text (tests, configs generated in memory).
+Config parse_config(const std::string& text, const std::string& file_name,
+                    const std::vector<std::string>& overrides = {});
+
+// The dotted path an override key stands for ("sigma0" -> "simulator.parameters.sigma0").
+std::string expand_override_key(const std::string& key);
+
+}  // namespace sigmaheart::app

@@ -1,0 +1,260 @@
+#include "app/io/observation_file.h"
+
+#include "app/errors.h"
+#include "app/io/atomic_file.h"
+#include "model/units.h"
+#include "observers/observation_builder.h"
+
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <istream>
+#include <ostream>
+#include <sstream>
+#include <stdexcept>
+
+namespace sigmaheart::app::io {
+namespace {
+
+constexpr const char* kHeaderExample = "'time [ms], V_lv [mL], P_lv [mmHg]'";
+
+struct Field {
+  std::string text;  // trimmed
+  int column = 1;    // 1-based character column of its first non-blank character
+};
+
+// Splits a line (comment already removed) at commas; columns are 1-based.
+std::vector<Field> split(const std::string& line) {
+  std::vector<Field> out;
+  size_t start = 0;
+  while (true) {
+    const size_t comma = line.find(',', start);
+    const size_t end = comma == std::string::npos ? line.size() : comma;
+    size_t b = start;
+    while (b < end && (line[b] == ' ' || line[b] == '\t')) ++b;
+    size_t e = end;
+    while (e > b && (line[e - 1] == ' ' || line[e - 1] == '\t')) --e;
+    out.push_back({line.substr(b, e - b), static_cast<int>(b) + 1});
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  return out;
+}
+
+bool blank(const std::string& s) { return s.find_first_not_of(" \t") == std::string::npos; }
+
+// The SI unit a column named `name` must measure, or "" when any known unit will do.
+std::string required_dimension(const std::string& name) {
+  if (name.rfind("V_", 0) == 0) return "m^3";
+  if (name.rfind("P_", 0) == 0) return "Pa";
+  return {};
+}
+
+std::string format_number(double v) {
+  char buf[64];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);
+  return std::string(buf, r.ptr);
+}
+
+}  // namespace
+
+ObservationCurves parse_observation_csv(std::istream& in, const std::string& source) {
+  auto fail = [&](int line, int column, const std::string& msg) -> InputError {
+    return InputError(source, line, column, msg);
+  };
+
+  struct Column {
+    std::string name, unit;
+    double factor = 1.0;
+    std::string si_unit;
+  };
+  std::vector<Column> columns;
+  std::vector<std::vector<double>> rows;
+  int header_line = 0;
+  int last_line = 0;
+  int line_no = 0;
+  std::string raw;
+  while (std::getline(in, raw)) {
+    ++line_no;
+    if (line_no == 1 && raw.rfind("\xEF\xBB\xBF", 0) == 0) raw.erase(0, 3);  // UTF-8 BOM
+    if (!raw.empty() && raw.back() == '\r') raw.pop_back();
+    const std::string line = raw.substr(0, raw.find('#'));
+    if (blank(line)) continue;
+    last_line = line_no;
+    const auto fields = split(line);
+
+    if (columns.empty()) {  // the header
+      header_line = line_no;
+      for (size_t f = 0; f < fields.size(); ++f) {
+        const auto& [text, col] = fields[f];
+        const std::string where = "header field " + std::to_string(f + 1);
+        const auto open = text.find('[');
+        const auto close = text.find(']');
+        if (open == std::string::npos || close == std::string::npos || close < open ||
+            close + 1 != text.size()) {
+          if (f == 0) {
+            throw fail(line_no, col, "missing header: expected 'name [unit]' columns such as " +
+                                         std::string(kHeaderExample) + ", got '" + text + "'");
+          }
+          throw fail(line_no, col, "expected 'name [unit]' in " + where + ", got '" + text + "'");
+        }
+        Column c;
+        c.name = text.substr(0, open);
+        while (!c.name.empty() && (c.name.back() == ' ' || c.name.back() == '\t')) c.name.pop_back();
+        c.unit = text.substr(open + 1, close - open - 1);
+        while (!c.unit.empty() && c.unit.front() == ' ') c.unit.erase(0, 1);
+        while (!c.unit.empty() && c.unit.back() == ' ') c.unit.pop_back();
+        const int unit_col = col + static_cast<int>(open) + 1;
+        if (c.name.empty() || c.name.find_first_of(" \t") != std::string::npos) {
+          throw fail(line_no, col, "expected a column name without spaces before '[' in " + where +
+                                       ", got '" + c.name + "'");
+        }
+        const auto conv = model::units::to_si(c.unit);
+        if (!conv) {
+          throw fail(line_no, unit_col,
+                     "column '" + c.name + "': " + observers::unknown_unit_message(c.unit));
+        }
+        c.factor = conv->factor;
+        c.si_unit = conv->si_unit;
+        if (f == 0) {
+          if (c.name != "time" || c.si_unit != "s") {
+            throw fail(line_no, col, "expected the first column to be 'time [ms]' or 'time [s]', got '" +
+                                         text + "'");
+          }
+        } else {
+          const std::string dim = required_dimension(c.name);
+          if (!dim.empty() && dim != c.si_unit) {
+            throw fail(line_no, unit_col,
+                       "column '" + c.name + "' expects a unit of " + dim + " (" +
+                           (dim == "m^3" ? "mL, L, m^3" : "mmHg, kPa, Pa") + "), got '" + c.unit + "'");
+          }
+          for (size_t g = 0; g < columns.size(); ++g) {
+            if (columns[g].name == c.name) {
+              throw fail(line_no, col, "column '" + c.name + "' appears twice (fields " +
+                                           std::to_string(g + 1) + " and " + std::to_string(f + 1) + ")");
+            }
+          }
+        }
+        columns.push_back(c);
+      }
+      if (columns.size() < 2) {
+        throw fail(line_no, 1, "expected at least one data column after 'time', e.g. " +
+                                   std::string(kHeaderExample));
+      }
+      continue;
+    }
+
+    if (fields.size() != columns.size()) {
+      throw fail(line_no, fields.back().column,
+                 "ragged row: expected " + std::to_string(columns.size()) +
+                     " fields (as in the header on line " + std::to_string(header_line) + "), got " +
+                     std::to_string(fields.size()));
+    }
+    std::vector<double> row(columns.size());
+    for (size_t f = 0; f < fields.size(); ++f) {
+      const auto& [text, col] = fields[f];
+      const std::string what = "field " + std::to_string(f + 1) + " ('" + columns[f].name + " [" +
+                               columns[f].unit + "]')";
+      if (text.empty()) throw fail(line_no, col, what + ": expected a number, got an empty field");
+      const char* b = text.data();
+      const char* e = text.data() + text.size();
+      if (*b == '+') ++b;
+      double v = 0.0;
+      const auto r = std::from_chars(b, e, v);
+      if (r.ec != std::errc() || r.ptr != e) {
+        throw fail(line_no, col, what + ": expected a number, got '" + text + "'");
+      }
+      if (!std::isfinite(v)) {
+        throw fail(line_no, col, what + ": expected a finite number, got '" + text + "'");
+      }
+      row[f] = v * columns[f].factor;
+    }
+    if (!rows.empty() && !(row[0] > rows.back()[0])) {
+      std::ostringstream s;
+      s << "field 1 ('time'): expected times to increase strictly, got " << fields[0].text << " "
+        << columns[0].unit << " after " << format_number(rows.back()[0] / columns[0].factor) << " "
+        << columns[0].unit;
+      throw fail(line_no, fields[0].column, s.str());
+    }
+    rows.push_back(std::move(row));
+  }
+  if (in.bad()) throw fail(0, 0, "read error");
+  if (columns.empty()) {
+    throw fail(line_no > 0 ? 1 : 0, 0,
+               "missing header: expected a first line such as " + std::string(kHeaderExample));
+  }
+  if (static_cast<int>(rows.size()) < kMinFrames) {
+    throw fail(last_line, 0, "too few rows: expected at least " + std::to_string(kMinFrames) +
+                                 " data rows (one per frame), got " + std::to_string(rows.size()));
+  }
+
+  ObservationCurves out;
+  out.time_unit = columns[0].unit;
+  const auto n = static_cast<Eigen::Index>(rows.size());
+  const auto m = static_cast<Eigen::Index>(columns.size()) - 1;
+  out.trajectory.times.resize(n);
+  out.trajectory.values.resize(n, m);
+  for (Eigen::Index k = 0; k < n; ++k) {
+    out.trajectory.times(k) = rows[static_cast<size_t>(k)][0];
+    for (Eigen::Index c = 0; c < m; ++c) {
+      out.trajectory.values(k, c) = rows[static_cast<size_t>(k)][static_cast<size_t>(c) + 1];
+    }
+  }
+  for (size_t c = 1; c < columns.size(); ++c) {
+    out.trajectory.channels.push_back(
+        {columns[c].name, columns[c].si_unit, "read from " + source + " in " + columns[c].unit});
+    out.display_units.push_back(columns[c].unit);
+  }
+  return out;
+}
+
+ObservationCurves read_observation_csv(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path.string(), 0, 0, "cannot open the observation file");
+  return parse_observation_csv(in, path.string());
+}
+
+void write_observation_csv(const std::filesystem::path& path, const model::Trajectory& trajectory,
+                           const std::string& time_unit,
+                           const std::vector<std::string>& display_units,
+                           const std::vector<std::string>& comment) {
+  const auto m = trajectory.channels.size();
+  if (!display_units.empty() && display_units.size() != m) {
+    throw std::invalid_argument("observation file: " + std::to_string(display_units.size()) +
+                                " display units for " + std::to_string(m) + " channels");
+  }
+  if (trajectory.values.rows() != trajectory.times.size() ||
+      trajectory.values.cols() != static_cast<Eigen::Index>(m)) {
+    throw std::invalid_argument("observation file: trajectory values do not match times and channels");
+  }
+  const auto time_conv = model::units::to_si(time_unit);
+  if (!time_conv || time_conv->si_unit != "s") {
+    throw std::invalid_argument("observation file: time unit must be 'ms' or 's', got '" + time_unit + "'");
+  }
+  std::vector<double> scale(m);  // value_display = value_stored * scale
+  std::vector<std::string> units(m);
+  for (size_t c = 0; c < m; ++c) {
+    const auto& ch = trajectory.channels[c];
+    const std::string stored = ch.unit.empty() ? (required_dimension(ch.name).empty() ? "1" : required_dimension(ch.name)) : ch.unit;
+    units[c] = display_units.empty() || display_units[c].empty() ? stored : display_units[c];
+    if (ch.name.empty() || ch.name.find_first_of(" \t,#[]") != std::string::npos) {
+      throw std::invalid_argument("observation file: channel name '" + ch.name + "' cannot be a column name");
+    }
+    scale[c] = model::units::convert(1.0, stored, units[c]);  // throws on unknown / mismatched
+  }
+  write_text_file(path, [&](std::ostream& out) {
+    for (const auto& line : comment) out << "# " << line << '\n';
+    out << "time [" << time_unit << "]";
+    for (size_t c = 0; c < m; ++c) out << ", " << trajectory.channels[c].name << " [" << units[c] << "]";
+    out << '\n';
+    for (Eigen::Index k = 0; k < trajectory.times.size(); ++k) {
+      out << format_number(trajectory.times(k) / time_conv->factor);
+      for (size_t c = 0; c < m; ++c) {
+        out << ", " << format_number(trajectory.values(k, static_cast<Eigen::Index>(c)) * scale[c]);
+      }
+      out << '\n';
+    }
+  });
+}
+
+}  // namespace sigmaheart::app::io

@@ -1,0 +1,165 @@
+#include "app/io/results.h"
+
+#include "app/io/atomic_file.h"
+#include "model/units.h"
+
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+#include <cmath>
+#include <ctime>
+#include <iomanip>
+#include <sstream>
+
+namespace sigmaheart::app::io {
+
+DisplayUnit display_unit(const std::string& si_unit) {
+  static const std::vector<std::pair<std::string, std::string>> clinical = {
+      {"m^3", "mL"}, {"m^3/s", "mL/s"}, {"Pa", "mmHg"}, {"Pa/s", "mmHg/s"}};
+  for (const auto& [si, shown] : clinical) {
+    if (si == si_unit) return {shown, model::units::convert(1.0, si, shown)};
+  }
+  return {si_unit, 1.0};
+}
+
+std::string version() { return SIGMAHEART_VERSION; }
+std::string git_describe() { return SIGMAHEART_GIT_DESCRIBE; }
+
+std::string utc_now() {
+  const std::time_t now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
+  std::tm tm{};
+  gmtime_r(&now, &tm);
+  std::ostringstream s;
+  s << std::put_time(&tm, "%Y-%m-%dT%H:%M:%SZ");
+  return s.str();
+}
+
+void write_provenance(Hdf5Writer& out, const Provenance& p) {
+  out.set_attribute("/", "sigmaheart_version", version());
+  out.set_attribute("/", "git_describe", git_describe());
+  out.set_attribute("/", "kind", p.kind);
+  out.set_attribute("/", "name", p.name);
+  out.set_attribute("/", "config", p.config_text);
+  out.set_attribute("/", "config_file", p.config_file);
+  out.set_attribute("/", "overrides", p.overrides);
+  out.set_attribute("/", "command_line", p.command_line);
+  if (p.seed) out.set_attribute("/", "seed", static_cast<std::int64_t>(*p.seed));
+  out.set_attribute("/", "start_utc", p.start_utc);
+  out.set_attribute("/", "end_utc", p.end_utc);
+  out.set_attribute("/", "threads", p.threads);
+  out.set_attribute("/", "ranks", p.ranks);
+  out.set_attribute("/", "units_convention",
+                    "curves and indices in clinical units (mL, mmHg, mL/s, mmHg/s, s); parameters "
+                    "in the SI unit of their model; each dataset's 'units' attribute names its unit");
+  out.write_text("/config", p.config_text);
+  out.set_attribute("/config", "file", p.config_file);
+}
+
+void write_parameters(Hdf5Writer& out, const std::string& group,
+                      const model::ParameterSpace& space,
+                      const Eigen::Ref<const Eigen::VectorXd>& values) {
+  std::vector<std::string> units, docs;
+  Eigen::VectorXd lower(space.size()), upper(space.size());
+  for (int i = 0; i < space.size(); ++i) {
+    units.push_back(space[i].unit);
+    docs.push_back(space[i].doc);
+    lower(i) = space[i].lower;
+    upper(i) = space[i].upper;
+  }
+  out.create_group(group);
+  out.write_strings(group + "/names", space.names());
+  out.write_strings(group + "/units", units);
+  out.write_strings(group + "/doc", docs);
+  out.write_vector(group + "/values", values);
+  out.write_vector(group + "/lower", lower);
+  out.write_vector(group + "/upper", upper);
+  const std::string note = "per parameter, see " + group + "/units";
+  for (const char* name : {"values", "lower", "upper"}) {
+    out.set_attribute(group + "/" + name, "units", note);
+  }
+}
+
+void write_trajectory(Hdf5Writer& out, const std::string& group, const model::Trajectory& t) {
+  out.create_group(group);
+  out.write_vector(group + "/time", t.times, "s");
+  std::vector<std::string> names;
+  for (size_t c = 0; c < t.channels.size(); ++c) {
+    const auto& ch = t.channels[c];
+    const DisplayUnit d = display_unit(ch.unit);
+    const std::string path = group + "/" + ch.name;
+    out.write_vector(path, t.values.col(static_cast<Eigen::Index>(c)) * d.from_si, d.unit);
+    if (!ch.doc.empty()) out.set_attribute(path, "doc", ch.doc);
+    names.push_back(ch.name);
+  }
+  out.set_attribute(group, "channels", names);
+}
+
+void write_trajectory_csv(const std::filesystem::path& path, const model::Trajectory& t) {
+  std::vector<DisplayUnit> units;
+  for (const auto& ch : t.channels) units.push_back(display_unit(ch.unit));
+  write_text_file(path, [&](std::ostream& s) {
+    s << "time [s]";
+    for (size_t c = 0; c < t.channels.size(); ++c) {
+      s << "," << t.channels[c].name << " [" << units[c].unit << "]";
+    }
+    s << "\n" << std::setprecision(10);
+    for (int k = 0; k < t.samples(); ++k) {
+      s << t.times(k);
+      for (size_t c = 0; c < t.channels.size(); ++c) {
+        s << "," << t.values(k, static_cast<Eigen::Index>(c)) * units[c].from_si;
+      }
+      s << "\n";
+    }
+  });
+}
+
+void write_indicators(Hdf5Writer& out, const std::string& group,
+                      const std::vector<Indicator>& indicators) {
+  out.create_group(group);
+  std::vector<std::string> names;
+  for (const auto& i : indicators) names.push_back(i.name);
+  out.set_attribute(group, "names", names);
+  for (const auto& i : indicators) {
+    out.set_attribute(group, i.name, i.value);
+    out.set_attribute(group, i.name + ".units", i.unit);
+  }
+}
+
+void write_indicators_json(const std::filesystem::path& path,
+                           const std::vector<Indicator>& indicators) {
+  nlohmann::ordered_json j = nlohmann::ordered_json::object();
+  for (const auto& i : indicators) {
+    // JSON has no NaN: a value that could not be computed is null.
+    j[i.name] = {{"value", std::isfinite(i.value) ? nlohmann::ordered_json(i.value) : nullptr},
+                 {"unit", i.unit}};
+  }
+  write_text_file(path, [&](std::ostream& s) { s << j.dump(2) << "\n"; });
+}
+
+std::string format_indicators(const std::vector<Indicator>& indicators) {
+  size_t name_w = 0, unit_w = 0;
+  for (const auto& i : indicators) {
+    name_w = std::max(name_w, i.name.size());
+    unit_w = std::max(unit_w, i.unit.size());
+  }
+  std::ostringstream s;
+  for (const auto& i : indicators) {
+    std::ostringstream v;
+    const double a = std::abs(i.value);
+    if (i.value == std::round(i.value) && a < 1e6) {
+      v << static_cast<long long>(i.value);
+    } else if (i.value == 0.0 || (a >= 0.01 && a < 1e6)) {
+      v << std::fixed << std::setprecision(a >= 100 ? 1 : a >= 1 ? 2 : 4) << i.value;
+    } else {
+      v << std::setprecision(3) << i.value;
+    }
+    s << "  " << std::left << std::setw(static_cast<int>(name_w)) << i.name << "  " << std::right
+      << std::setw(10) << v.str() << " " << std::left << std::setw(static_cast<int>(unit_w))
+      << i.unit;
+    if (!i.doc.empty()) s << "  " << i.doc;
+    s << "\n";
+  }
+  return s.str();
+}
+
+}  // namespace sigmaheart::app::io

@@ -1,0 +1,85 @@
+// The pieces every results file shares (ARCHITECTURE.md, "Results files"): provenance on the root,
+// the config text, the parameters, trajectories, and summaries of named values with units.
+//
+// Units convention of results files, CSV, JSON and the terminal: curves and indices are written
+// in clinical units (mL, mmHg, mL/s, mmHg/s; time in s), the SI values of the models converted by
+// display_unit(); parameters keep the SI unit their model declares. Every numeric dataset carries
+// a `units` attribute naming the unit its numbers are in, so readers never guess.
+#pragma once
+
+#include "app/io/hdf5_writer.h"
+#include "model/simulator.h"
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace sigmaheart::app::io {
+
+// The unit a quantity is shown in, and the factor from SI: shown = si_value * from_si.
+struct DisplayUnit {
+  std::string unit;
+  double from_si = 1.0;
+};
+// m^3 -> mL, m^3/s -> mL/s, Pa -> mmHg, Pa/s -> mmHg/s; any other unit is shown as is.
+DisplayUnit display_unit(const std::string& si_unit);
+
+// "0.1.0" and the `git describe` of the build.
+std::string version();
+std::string git_describe();
+// Now, as ISO 8601 UTC with seconds: "2026-11-21T05:50:31Z".
+std::string utc_now();
+
+// Root attributes of every results file.
+struct Provenance {
+  std::string kind;                    // "simulate", "calibrate", ... (scripts/plot dispatches on it)
+  std::string name;                    // the config's name
+  std::string config_file;
+  std::string config_text;             // the whole file, as read
+  std::vector<std::string> overrides;  // "--set key=value" in order
+  std::string command_line;
+  std::optional<std::uint64_t> seed;
+  std::string start_utc;
+  std::string end_utc;
+  int threads = 1;
+  int ranks = 1;
+};
+// Root attributes (sigmaheart_version, git_describe, kind, name, config, config_file, overrides,
+// command_line, seed if any, start_utc, end_utc, threads, ranks, units_convention) and the
+// /config text dataset.
+void write_provenance(Hdf5Writer& out, const Provenance& p);
+
+// <group>/names, units, values, lower, upper (values in each parameter's own unit).
+void write_parameters(Hdf5Writer& out, const std::string& group,
+                      const model::ParameterSpace& space,
+                      const Eigen::Ref<const Eigen::VectorXd>& values);
+
+// <group>/time [s] and one dataset per channel in its display unit (attributes `units`, `doc`);
+// the group's `channels` attribute lists the channel names in order.
+void write_trajectory(Hdf5Writer& out, const std::string& group, const model::Trajectory& t);
+
+// CSV with a header row "time [s],V_lv [mL],..." in display units, written atomically.
+void write_trajectory_csv(const std::filesystem::path& path, const model::Trajectory& t);
+
+// A named value with its unit (already in the unit shown).
+struct Indicator {
+  std::string name;
+  double value = 0.0;
+  std::string unit;
+  std::string doc;
+};
+
+// Attributes "<name>" (value) and "<name>.units" on `group` (created if missing).
+void write_indicators(Hdf5Writer& out, const std::string& group,
+                      const std::vector<Indicator>& indicators);
+// {"EDV": {"value": 142.1, "unit": "mL"}, ...}, written atomically.
+void write_indicators_json(const std::filesystem::path& path,
+                           const std::vector<Indicator>& indicators);
+// An aligned table "name  value unit  doc" for the terminal.
+std::string format_indicators(const std::vector<Indicator>& indicators);
+
+}  // namespace sigmaheart::app::io

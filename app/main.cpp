@@ -1,0 +1,12 @@
+// sigmaheart: personalise Bestel-Clement-Sorine heart models from clinical data.
+// Everything lives in sigmaheart_cli (app/cli.h) so the tests can run commands in-process.
+#include "app/cli.h"
+#include "estimation/mpi.h"
+
+#include <iostream>
+
+int main(int argc, char** argv) {
+  // Under mpirun every rank runs the same command; MPI is initialised only when compiled in.
+  sigmaheart::estimation::MpiSession mpi(&argc, &argv);
+  return sigmaheart::app::run_cli(argc, argv, std::cout, std::cerr);
+}

@@ -1,0 +1,147 @@
+// Ensemble throughput (forward evaluations per second, the items_per_second column) on 1 and 2
+// threads: a cheap CPU-bound map (scheduling overhead) and the lumped sphere through
+// SimulatorForwardModel (real members); plus the wall time of a one-shot UT calibration of the
+// lumped sphere (3 parameters, star rule, 7 members + centre + fit).
+//   build/bench/ensemble_bench --benchmark_filter=Lumped
+#include "estimation/ensemble.h"
+#include "estimation/forward_model.h"
+#include "estimation/ut_calibration.h"
+#include "model/lumped/sphere.h"
+
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <memory>
+
+namespace {
+
+using namespace sigmaheart;
+using estimation::Backend;
+using estimation::EnsembleOptions;
+
+// About 20 microseconds of transcendental arithmetic per member.
+class CheapModel final : public estimation::ForwardModel {
+ public:
+  int input_size() const override { return 3; }
+  std::vector<std::string> input_names() const override { return {"a", "b", "c"}; }
+  std::vector<model::Channel> outputs() const override {
+    return {{"s", "1", ""}, {"c", "1", ""}};
+  }
+  model::Status evaluate(const Eigen::Ref<const Eigen::VectorXd>& t,
+                         Eigen::Ref<Eigen::VectorXd> z) override {
+    double s = 0, c = 0;
+    for (int k = 1; k <= 1000; ++k) {
+      s += std::sin(k * t(0) + t(1)) / k;
+      c += std::cos(k * t(2)) * std::exp(-1e-3 * k);
+    }
+    z << s, c;
+    return model::Status::Ok();
+  }
+  std::unique_ptr<ForwardModel> clone() const override { return std::make_unique<CheapModel>(); }
+};
+
+// EDV and ESV of the simulated beat: the smallest observer that makes the sphere a forward map.
+class VolumeExtremes final : public observers::Observer {
+ public:
+  std::vector<model::Channel> outputs() const override {
+    return {{"EDV", "m^3", "max V_lv"}, {"ESV", "m^3", "min V_lv"}};
+  }
+  model::Status observe(const model::Trajectory& tr, Eigen::Ref<Eigen::VectorXd> z) const override {
+    if (!tr.has_channel("V_lv") || tr.samples() < 3) {
+      return model::Status::Error(model::StatusCode::kBadOutput, "no V_lv samples");
+    }
+    const Eigen::VectorXd v = tr.channel("V_lv");
+    z << v.maxCoeff(), v.minCoeff();
+    return model::Status::Ok();
+  }
+  std::unique_ptr<Observer> clone() const override { return std::make_unique<VolumeExtremes>(); }
+};
+
+EnsembleOptions threads(int n) {
+  EnsembleOptions o;
+  o.backend = Backend::kThreads;
+  o.threads = n;
+  return o;
+}
+
+void BM_EnsembleCheapModel(benchmark::State& state) {
+  const int members = 64;
+  const CheapModel proto;
+  estimation::Ensemble ensemble(proto, threads(static_cast<int>(state.range(0))));
+  Eigen::MatrixXd thetas(members, 3);
+  for (int i = 0; i < members; ++i) thetas.row(i) << 0.01 * i, 0.3, 0.02 * i;
+  for (auto _ : state) benchmark::DoNotOptimize(ensemble.evaluate(thetas).Z.data());
+  state.SetItemsProcessed(state.iterations() * members);
+}
+BENCHMARK(BM_EnsembleCheapModel)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
+
+const std::vector<std::string> kEstimated = {"sigma0", "R_p", "c1"};
+
+void BM_EnsembleLumpedSphere(benchmark::State& state) {
+  const model::lumped::LumpedSphere sphere;
+  const VolumeExtremes observer;
+  const estimation::SimulatorForwardModel fm(sphere, observer, kEstimated);
+  const int members = 8;
+  Eigen::MatrixXd thetas(members, 3);
+  const auto& space = sphere.parameters();
+  for (int i = 0; i < members; ++i) {
+    for (int j = 0; j < 3; ++j) {
+      const double base = space[space.index_or_throw(kEstimated[static_cast<size_t>(j)])].nominal;
+      thetas(i, j) = base * (1.0 + 0.05 * std::sin(1.0 + i + 2.0 * j));
+    }
+  }
+  estimation::Ensemble ensemble(fm, threads(static_cast<int>(state.range(0))));
+  int failures = 0;
+  for (auto _ : state) failures = ensemble.evaluate(thetas).failures();
+  state.SetItemsProcessed(state.iterations() * members);
+  state.counters["failures"] = failures;
+}
+BENCHMARK(BM_EnsembleLumpedSphere)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
+
+void BM_UtCalibrationLumpedSphereOneShot(benchmark::State& state) {
+  const model::lumped::LumpedSphere sphere;
+  const VolumeExtremes observer;
+  const estimation::SimulatorForwardModel fm(sphere, observer, kEstimated);
+  const auto& space = sphere.parameters();
+  std::vector<estimation::CalibrationParameter> pars;
+  Eigen::VectorXd truth(3);
+  for (int j = 0; j < 3; ++j) {
+    estimation::CalibrationParameter p;
+    p.name = kEstimated[static_cast<size_t>(j)];
+    const double nominal = space[space.index_or_throw(p.name)].nominal;
+    p.prior_mean = nominal;
+    p.prior_spread = 0.1;
+    p.transform = {estimation::TransformKind::kLog, nominal};
+    pars.push_back(p);
+    truth(j) = nominal * 1.08;
+  }
+  observers::ObservationSet obs;
+  obs.names = {"EDV", "ESV"};
+  obs.units = {"m^3", "m^3"};
+  obs.y.resize(2);
+  auto probe = fm.clone();
+  if (!probe->evaluate(truth, obs.y).ok()) {
+    state.SkipWithError("the lumped sphere failed at the synthetic truth");
+    return;
+  }
+  obs.R = (0.02 * obs.y).array().square().matrix().asDiagonal();
+  estimation::UtOptions opt;
+  opt.sigma = {estimation::SigmaRule::kStar, 0.5};
+  opt.ensemble = threads(static_cast<int>(state.range(0)));
+  int runs = 0;
+  for (auto _ : state) {
+    const auto summary = estimation::UtCalibration(fm, pars, obs, opt).run();
+    runs = summary.simulations;
+    benchmark::DoNotOptimize(summary.eta_mean.data());
+  }
+  state.counters["runs"] = runs;
+}
+BENCHMARK(BM_UtCalibrationLumpedSphereOneShot)
+    ->Arg(1)
+    ->Arg(2)
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();

@@ -1,0 +1,81 @@
+// ROUKF cost on the 17-segment regional personalisation (experiments/regional-personalization):
+//  - one filter step (sampling, 18 members advanced over one frame of 1/30 beat, correction with
+//    17 regional volumes) on 1 and 2 threads (real_time: the wall time);
+//  - the whole twin experiment (4 beats x 30 frames) on 1 and 2 threads, its wall time and the
+//    max error after each pass as counters.
+// Run: build/bench/roukf_bench   (or --benchmark_filter=Step)
+#include "estimation/roukf/regional_twin.h"
+
+#include <benchmark/benchmark.h>
+
+namespace {
+
+using namespace sigmaheart;
+
+estimation::RegionalTwin make_twin(const model::lumped::RegionalVentricle& model, int beats) {
+  estimation::RegionalTwinOptions o;
+  o.model = model.options();
+  o.beats = beats;
+  return estimation::make_regional_twin(model, o);
+}
+
+model::lumped::RegionalVentricle lbbb_model() {
+  model::lumped::RegionalOptions mo;
+  mo.activation = model::lumped::ActivationPattern::kLbbb;
+  return model::lumped::RegionalVentricle(mo);
+}
+
+// One filter step after the spin-up: the filter starts from the prior's periodic state (common to
+// all members) and the data are cut to the first frame, so run_roukf does exactly one step.
+void BM_RoukfOneStep(benchmark::State& bench) {
+  auto model = lbbb_model();
+  estimation::RegionalTwin twin = make_twin(model, 1);
+  const Eigen::VectorXd nominal = model.parameters().nominal();
+  model::State start = model.initial_state(nominal);
+  if (!model.advance(start, nominal, twin.data.times(0) - twin.filter.period / 30.0).ok()) {
+    bench.SkipWithError("spin-up failed");
+    return;
+  }
+  twin.filter.initial_state = start;
+  twin.filter.initial_state_per_member = false;
+  estimation::RoukfData one = twin.data;
+  one.times = one.times.head(1).eval();
+  one.values = one.values.topRows(1).eval();
+  twin.filter.ensemble.threads = static_cast<int>(bench.range(0));
+  twin.filter.ensemble.backend = estimation::Backend::kThreads;
+  for (auto _ : bench) {
+    const auto s = estimation::run_roukf(model, one, twin.filter);
+    if (!s.ok()) {
+      bench.SkipWithError(s.message.c_str());
+      return;
+    }
+    benchmark::DoNotOptimize(s.eta.data());
+  }
+  bench.counters["members"] = 18;
+}
+BENCHMARK(BM_RoukfOneStep)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
+
+// The twin experiment: 17 contractilities from noisy regional volumes, 4 beats.
+void BM_RoukfTwinExperiment(benchmark::State& bench) {
+  const auto model = lbbb_model();
+  estimation::RegionalTwin twin = make_twin(model, 4);
+  twin.filter.ensemble.threads = static_cast<int>(bench.range(0));
+  estimation::RoukfSummary s;
+  for (auto _ : bench) {
+    s = estimation::run_roukf(model, twin.data, twin.filter);
+    if (!s.ok()) {
+      bench.SkipWithError(s.message.c_str());
+      return;
+    }
+  }
+  const Eigen::MatrixXd err = estimation::per_beat_relative_errors(s, twin.truth_sigma0);
+  for (int b = 0; b < err.rows(); ++b) {
+    bench.counters["max_err_beat" + std::to_string(b + 1) + "_pct"] = 100 * err.row(b).maxCoeff();
+  }
+  bench.counters["steps"] = static_cast<double>(s.steps.size());
+}
+BENCHMARK(BM_RoukfTwinExperiment)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kSecond)->Iterations(1);
+
+}  // namespace
+
+BENCHMARK_MAIN();

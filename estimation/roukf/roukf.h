@@ -1,0 +1,179 @@
+// Reduced-Order Unscented Kalman Filter (ROUKF) for joint state-parameter estimation
+// (Moireau & Chapelle 2011, "Reduced-order Unscented Kalman Filtering with application to
+// parameter identification in large-dimensional systems", ESAIM COCV 17:380; ESTIMATION.md s.4).
+//
+// Augmented state x = (y, eta): y the simulator's flat model state, eta the estimated parameters
+// in unconstrained coordinates (theta = T(eta), transform.h). The covariance is kept factored,
+// P = L U^-1 L^T with L n x p and U p x p (p = number of estimated parameters), so only p x p
+// systems are solved whatever the model size. One filter step between observation times:
+//   sampling     C = chol(U^-1), L <- L C, x_i = x + L V_i          (M&C 2011, eq. 3.8 with
+//                                                                    simplex points, Sec. 3.2)
+//   prediction   x_i advanced to the next frame (r = p+1 members, in parallel), x- = sum a_i x_i,
+//                L = [x_i] D_a V^T, U = I                            (eq. 3.9)
+//   correction   z_i = H(x_i), HL = [z_i] D_a V^T, U = I + HL^T R^-1 HL,
+//                x+ = x- + L U^-1 HL^T R^-1 (y - z-)                 (eq. 3.10)
+// With simplex points one correction equals the Unscented-Transform update
+// K = P_xz (P_zz + R)^-1 (ESTIMATION.md s.3), and on a linear-Gaussian model the filter equals the
+// Kalman filter; both are tests. The filter corrects the model state too.
+//
+// Marchesseau et al. 2013 (Med Image Anal 17:816) use this filter to estimate one contractility
+// per AHA zone from regional volume curves (p = 17, 18 members per step).
+#pragma once
+
+#include "estimation/ensemble.h"
+#include "estimation/sigma_points.h"
+#include "estimation/transform.h"
+#include "model/simulator.h"
+
+#include <Eigen/Core>
+
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace sigmaheart::estimation {
+
+// One estimated parameter: a name of the simulator's ParameterSpace, its transform and its prior.
+struct RoukfParameter {
+  std::string name;
+  Transform transform;        // eta -> theta
+  double prior_eta = 0.0;     // prior mean in eta (for a log transform with reference = the prior
+                              // value, 0)
+  double prior_std_eta = 0.5; // prior standard deviation in eta, > 0
+};
+
+// Measured channels of the simulator's sample() at frame times. A NaN entry is a missing value
+// (that channel is not used at that frame); a frame with every entry missing is a prediction-only
+// step.
+struct RoukfData {
+  std::vector<std::string> channels;  // names in simulator.channels()
+  Eigen::VectorXd times;              // [s], strictly increasing, after the initial state's time
+  Eigen::MatrixXd values;             // frames x channels, SI
+  // Empty when sizes agree and times increase, else a message.
+  std::string validate() const;
+};
+
+// What to do when an ensemble member fails (ESTIMATION.md s.8). Every action is recorded.
+enum class RoukfFailurePolicy {
+  // Retry the member with a refined time step (Options::refine) up to max_retries times; if it
+  // still fails, re-run the whole step with the sigma spread shrunk by `shrink`, skip the analysis
+  // of that frame and inflate the covariance by `inflation`; abort if that fails too.
+  kRetryThenSkip,
+  // As above without retries.
+  kSkipWithInflation,
+  // Stop at the first failure (after retries), reporting the member's parameters.
+  kAbort,
+};
+const char* to_string(RoukfFailurePolicy policy);
+std::optional<RoukfFailurePolicy> parse_roukf_failure_policy(const std::string& text);
+// "retry-then-skip", "skip", "abort"
+
+struct RoukfAction {
+  int member = -1;           // -1: the whole step
+  std::string what;          // "retried with refined step (level 1)", "shrunk spread", ...
+  model::Status status;      // the failure that triggered it
+};
+
+// Per-step record. Vectors over parameters are in the order of RoukfOptions::parameters; vectors
+// over channels in the order of RoukfData::channels (NaN where missing).
+struct RoukfStep {
+  int index = 0;          // step number (0-based)
+  int beat = 0;           // data pass
+  int frame = 0;          // row of RoukfData
+  double time = 0.0;      // [s]
+  int observed = 0;       // channels used in the analysis (0: prediction only)
+  bool analysis_skipped = false;  // data present but not used (failure policy)
+  Eigen::VectorXd eta;        // analysed mean
+  Eigen::VectorXd eta_std;    // sqrt(diag P_eta)
+  // theta = T(eta) (the median of theta under a Gaussian eta; not the mean of theta) and the
+  // +-2 sigma interval T(eta -+ 2 std) (transforms are monotone).
+  Eigen::VectorXd theta, theta_lower, theta_upper;
+  Eigen::VectorXd forecast;     // z- (prior fitted observation)
+  Eigen::VectorXd fitted;       // z- + HL U^-1 HL^T R^-1 (y - z-) (linearised posterior fit)
+  Eigen::VectorXd innovation;   // y - z-
+  double nis = 0.0;             // innovation^T S^-1 innovation, S = HL HL^T + R
+  double log_likelihood = 0.0;  // log N(y; z-, S)
+  std::vector<RoukfAction> actions;
+  // Filled when RoukfOptions::record_factors.
+  Eigen::VectorXd x;
+  Eigen::MatrixXd L, U;
+};
+
+struct RoukfOptions {
+  std::vector<RoukfParameter> parameters;  // what is estimated (p >= 1)
+  // Observation noise covariance over RoukfData::channels (SI^2), symmetric positive definite.
+  // Missing values select the sub-matrix of the present channels.
+  Eigen::MatrixXd R;
+  // The data are assimilated `beats` times: pass b uses times + b * period (period > 0 when
+  // beats > 1). Mirrors repeating one measured, periodic beat as Marchesseau et al. 2013 do.
+  int beats = 1;
+  double period = 0.0;  // [s]
+  // Full parameter vector for the parameters that are not estimated; empty: the nominal values.
+  Eigen::VectorXd base_theta;
+  // Initial model state; empty: simulator.initial_state(theta at the prior mean).
+  std::optional<model::State> initial_state;
+  // When set (and initial_state is empty) every sigma point of the first prediction starts from
+  // simulator.initial_state(theta_i) instead of the common initial state: the prior then carries
+  // the state-parameter correlation of the initial condition (exact for a linear map
+  // theta -> y0). With a first frame some beats after t = 0, that first prediction is a spin-up of
+  // every member to its own periodic state (the regional twin experiment does this).
+  bool initial_state_per_member = false;
+  // Fading memory: after every prediction P <- P / forgetting, forgetting in (0, 1]. 1 is the
+  // filter of Moireau & Chapelle as written; below 1 it keeps the filter from growing
+  // over-confident when one measured beat is assimilated again and again (the same data then
+  // count once per pass). The memory is about 1/(1 - forgetting) frames.
+  double forgetting = 1.0;
+  SigmaRule sigma_rule = SigmaRule::kSimplex;  // a rule with equal mean and covariance weights
+  double star_kappa = 0.5;                     // kStar only
+  EnsembleOptions ensemble;
+
+  RoukfFailurePolicy failure_policy = RoukfFailurePolicy::kRetryThenSkip;
+  int max_retries = 2;      // refined retries per failed member (each halves the step again)
+  double shrink = 0.5;      // sigma spread factor for the re-run after a failure, in (0, 1)
+  double inflation = 0.1;   // covariance inflation when an analysis is skipped: P *= 1 + inflation
+  // A copy of the simulator with its time step divided by 2^level, or nullptr when the simulator
+  // offers no such control. Empty: no retries.
+  std::function<std::unique_ptr<model::SteppableSimulator>(const model::SteppableSimulator&,
+                                                           int level)>
+      refine;
+
+  bool record_factors = false;  // keep x, L, U after every step (tests, diagnostics)
+  // Called after every step; return false to stop (termination kCancelled).
+  std::function<bool(const RoukfStep&)> on_step;
+
+  // Empty when the fields are consistent, else a message naming the field.
+  std::string validate() const;
+};
+
+enum class RoukfTermination { kCompleted, kMemberFailed, kCancelled, kInvalidInput };
+const char* to_string(RoukfTermination t);
+
+struct RoukfSummary {
+  RoukfTermination termination = RoukfTermination::kInvalidInput;
+  std::string message;  // why it stopped; for kMemberFailed the member's parameters
+  std::vector<std::string> parameter_names;
+  std::vector<RoukfStep> steps;
+  // Final estimate.
+  Eigen::VectorXd eta, theta, theta_lower, theta_upper;
+  Eigen::MatrixXd eta_covariance;  // P_eta = L_eta U^-1 L_eta^T
+  model::State state;              // final analysed model state
+  Eigen::MatrixXd L, U;            // final factors (x = (state.x, eta))
+  int members = 0;                 // r
+  int member_runs = 0;
+  int retries = 0;
+  int skipped_analyses = 0;
+  double wall_seconds = 0.0;
+
+  bool ok() const { return termination == RoukfTermination::kCompleted; }
+  std::string brief_report() const;  // one line
+  std::string full_report() const;   // per parameter: estimate, +-2 sigma
+};
+
+// Runs the filter. The simulator is the prototype: each worker gets its own clone; the prototype
+// itself is not advanced. Never throws for bad input or member failures (see termination).
+RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const RoukfData& data,
+                       const RoukfOptions& options);
+
+}  // namespace sigmaheart::estimation

@@ -1,0 +1,262 @@
+#include "estimation/sensitivity/sobol_indices.h"
+
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+#include <tuple>
+
+namespace sigmaheart::estimation::sensitivity {
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+// Bootstrap streams live above the scramble streams (0..2p-1) of the same seed.
+constexpr std::uint64_t kBootstrapStream = 1ULL << 40;
+
+struct Indices {
+  Eigen::MatrixXd S1, ST;  // p x m
+  Eigen::VectorXd V;       // m
+};
+
+// The estimators on the rows `idx` (indices into 0..N-1) of every block.
+Indices estimate_on(const Eigen::MatrixXd& Z, int p, int N, const std::vector<int>& idx) {
+  const int m = static_cast<int>(Z.cols());
+  const auto n = static_cast<double>(idx.size());
+  Indices out{Eigen::MatrixXd(p, m), Eigen::MatrixXd(p, m), Eigen::VectorXd(m)};
+  for (int k = 0; k < m; ++k) {
+    double sum = 0.0;
+    for (int j : idx) sum += Z(j, k) + Z(N + j, k);
+    const double mean = sum / (2.0 * n);
+    double ss = 0.0;
+    for (int j : idx) {
+      const double a = Z(j, k) - mean, b = Z(N + j, k) - mean;
+      ss += a * a + b * b;
+    }
+    const double V = ss / (2.0 * n - 1.0);
+    out.V(k) = V;
+    for (int i = 0; i < p; ++i) {
+      const Eigen::Index off = static_cast<Eigen::Index>(2 + i) * N;
+      double s1 = 0.0, st = 0.0;
+      for (int j : idx) {
+        const double fA = Z(j, k), fB = Z(N + j, k), fAB = Z(off + j, k);
+        s1 += (fB - mean) * (fAB - fA);  // centred: see the header
+        st += (fA - fAB) * (fA - fAB);
+      }
+      out.S1(i, k) = V > 0 ? s1 / n / V : kNaN;
+      out.ST(i, k) = V > 0 ? st / (2.0 * n) / V : kNaN;
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+const char* to_string(SobolFailurePolicy policy) {
+  switch (policy) {
+    case SobolFailurePolicy::kStop: return "stop";
+    case SobolFailurePolicy::kImputeMean: return "impute-mean";
+  }
+  return "unknown";
+}
+
+std::optional<SobolFailurePolicy> parse_sobol_failure_policy(const std::string& text) {
+  if (text == "stop") return SobolFailurePolicy::kStop;
+  if (text == "impute-mean" || text == "impute_mean") return SobolFailurePolicy::kImputeMean;
+  return std::nullopt;
+}
+
+std::string SobolOptions::validate(int p) const {
+  std::ostringstream s;
+  if (p < 1 || 2 * p > kMaxSobolDimension) {
+    s << "Sobol' study: " << p << " parameters; supported are 1.." << kMaxSobolDimension / 2
+      << " (the design needs a Sobol' sequence of dimension 2p)";
+    return s.str();
+  }
+  if (base_samples < 16 || !is_power_of_two(static_cast<std::uint64_t>(base_samples))) {
+    s << "Sobol' study: base_samples must be a power of two >= 16, got " << base_samples;
+    return s.str();
+  }
+  if (bootstrap_samples < 0) return "Sobol' study: bootstrap_samples must be >= 0";
+  if (!(confidence > 0.0 && confidence < 1.0)) return "Sobol' study: confidence must be in (0, 1)";
+  if (convergence_levels < 1) return "Sobol' study: convergence_levels must be >= 1";
+  return ensemble.validate();
+}
+
+Eigen::MatrixXd saltelli_design(int p, int N, Scrambling scrambling, std::uint64_t seed) {
+  SobolSequenceOptions so;
+  so.dimension = 2 * p;
+  so.scrambling = scrambling;
+  so.seed = seed;
+  const SobolSequence seq(so);
+  const Eigen::MatrixXd P = seq.points(0, static_cast<std::uint64_t>(N));
+  Eigen::MatrixXd U(static_cast<Eigen::Index>(N) * (p + 2), p);
+  const Eigen::MatrixXd A = P.leftCols(p);
+  const Eigen::MatrixXd B = P.rightCols(p);
+  U.topRows(N) = A;
+  U.middleRows(N, N) = B;
+  for (int i = 0; i < p; ++i) {
+    Eigen::MatrixXd ABi = A;
+    ABi.col(i) = B.col(i);
+    U.middleRows(static_cast<Eigen::Index>(2 + i) * N, N) = ABi;
+  }
+  return U;
+}
+
+SobolEstimate sobol_estimate(const Eigen::MatrixXd& Z, int p, int N, int n_used,
+                             const SobolOptions& options) {
+  if (Z.rows() != static_cast<Eigen::Index>(N) * (p + 2) || n_used < 2 || n_used > N) {
+    throw std::invalid_argument("sobol_estimate: outputs do not match an N (p + 2) design");
+  }
+  const int m = static_cast<int>(Z.cols());
+  std::vector<int> rows(static_cast<size_t>(n_used));
+  for (int j = 0; j < n_used; ++j) rows[static_cast<size_t>(j)] = j;
+  const Indices point = estimate_on(Z, p, N, rows);
+
+  SobolEstimate e;
+  e.n = n_used;
+  e.S1 = point.S1;
+  e.ST = point.ST;
+  e.variance = point.V;
+  e.S1_low = e.S1_high = e.ST_low = e.ST_high = Eigen::MatrixXd::Constant(p, m, kNaN);
+  const int B = options.bootstrap_samples;
+  if (B == 0) return e;
+
+  // Replicate b resamples n_used rows with replacement from make_stream(s_n, b), s_n depending
+  // on the seed and the prefix size only: identical for any thread count.
+  const std::uint64_t s_n = stream_seed(options.seed, kBootstrapStream + static_cast<std::uint64_t>(n_used));
+  std::vector<Indices> reps(static_cast<size_t>(B));
+#pragma omp parallel for schedule(static)
+  for (int b = 0; b < B; ++b) {
+    std::mt19937_64 rng = make_stream(s_n, static_cast<std::uint64_t>(b));
+    std::vector<int> idx(static_cast<size_t>(n_used));
+    for (auto& j : idx) j = uniform_index(rng, n_used);
+    reps[static_cast<size_t>(b)] = estimate_on(Z, p, N, idx);
+  }
+  std::vector<double> s1(static_cast<size_t>(B)), st(static_cast<size_t>(B));
+  for (int i = 0; i < p; ++i) {
+    for (int k = 0; k < m; ++k) {
+      for (int b = 0; b < B; ++b) {
+        s1[static_cast<size_t>(b)] = reps[static_cast<size_t>(b)].S1(i, k);
+        st[static_cast<size_t>(b)] = reps[static_cast<size_t>(b)].ST(i, k);
+      }
+      std::tie(e.S1_low(i, k), e.S1_high(i, k)) = percentile_interval(s1, options.confidence);
+      std::tie(e.ST_low(i, k), e.ST_high(i, k)) = percentile_interval(st, options.confidence);
+    }
+  }
+  return e;
+}
+
+SobolResult run_sobol(const ForwardModel& model, const std::vector<ParameterRange>& ranges,
+                      const SobolOptions& options) {
+  if (const std::string m = validate_ranges(ranges, model); !m.empty()) {
+    throw std::invalid_argument("Sobol' study: " + m);
+  }
+  const int p = static_cast<int>(ranges.size());
+  if (const std::string m = options.validate(p); !m.empty()) throw std::invalid_argument(m);
+  const int N = options.base_samples;
+
+  SobolResult r;
+  r.parameters = range_names(ranges);
+  r.outputs = output_names(model);
+  r.N = N;
+  r.runs = N * (p + 2);
+  r.thetas = unit_to_theta(ranges, saltelli_design(p, N, options.scrambling, options.seed));
+  EnsembleResult ens = evaluate_design(model, r.thetas, options.ensemble);
+  r.Z = ens.Z;
+
+  std::vector<char> ok(static_cast<size_t>(r.runs), 1);
+  for (int run = 0; run < r.runs; ++run) {
+    const model::Status& st = ens.status[static_cast<size_t>(run)];
+    if (st.ok() && r.Z.row(run).allFinite()) continue;
+    ok[static_cast<size_t>(run)] = 0;
+    FailedRun f;
+    f.run = run;
+    const int block = run / N;
+    f.design_row = run % N;
+    f.block = block == 0 ? "A" : block == 1 ? "B"
+                         : "AB_" + std::to_string(block - 1) + " (" +
+                               r.parameters[static_cast<size_t>(block - 2)] + ")";
+    f.theta = r.thetas.row(run).transpose();
+    f.status = st.ok() ? model::Status::Error(model::StatusCode::kNonFinite, "non-finite output")
+                       : st;
+    r.failed_runs.push_back(std::move(f));
+  }
+
+  Eigen::MatrixXd Zuse = r.Z;
+  if (!r.failed_runs.empty()) {
+    std::ostringstream s;
+    s << r.failed_runs.size() << " of " << r.runs << " runs failed";
+    const bool all_failed = static_cast<int>(r.failed_runs.size()) == r.runs;
+    if (options.failure_policy == SobolFailurePolicy::kStop || all_failed) {
+      s << "; policy '" << to_string(options.failure_policy)
+        << "': no indices computed (a Saltelli design cannot drop rows)";
+      r.valid = false;
+      r.message = s.str();
+      return r;
+    }
+    for (Eigen::Index k = 0; k < Zuse.cols(); ++k) {
+      double sum = 0.0;
+      int count = 0;
+      for (int run = 0; run < r.runs; ++run) {
+        if (ok[static_cast<size_t>(run)]) {
+          sum += Zuse(run, k);
+          ++count;
+        }
+      }
+      for (const FailedRun& f : r.failed_runs) Zuse(f.run, k) = sum / count;
+    }
+    s << "; policy 'impute-mean': their outputs were replaced by the mean of the successful runs";
+    r.imputed = true;
+    r.message = s.str();
+  }
+
+  r.valid = true;
+  for (int level = 0, n = N; level < options.convergence_levels && n >= 16; ++level, n /= 2) {
+    r.convergence.push_back(sobol_estimate(Zuse, p, N, n, options));
+  }
+  r.estimate = r.convergence.front();
+  for (Eigen::Index k = 0; k < r.estimate.variance.size(); ++k) {
+    if (!(r.estimate.variance(k) > 0)) r.constant_outputs.push_back(r.outputs[static_cast<size_t>(k)]);
+  }
+  return r;
+}
+
+std::string SobolResult::report() const {
+  std::ostringstream s;
+  s << "Sobol' indices: " << parameters.size() << " parameters, " << outputs.size()
+    << " outputs, N = " << N << ", " << runs << " runs (Saltelli 2010 S1, Jansen ST)\n";
+  if (!failed_runs.empty()) {
+    s << message << "\n";
+    const size_t shown = std::min<size_t>(failed_runs.size(), 10);
+    for (size_t i = 0; i < shown; ++i) {
+      const FailedRun& f = failed_runs[i];
+      s << "  run " << f.run << " (block " << f.block << ", row " << f.design_row << "): "
+        << model::to_string(f.status.code) << " " << f.status.message << "; theta =";
+      for (Eigen::Index j = 0; j < f.theta.size(); ++j) s << " " << f.theta(j);
+      s << "\n";
+    }
+    if (shown < failed_runs.size()) s << "  ... " << failed_runs.size() - shown << " more\n";
+  }
+  if (!valid) {
+    s << "INVALID: no indices\n";
+    return s.str();
+  }
+  for (const auto& c : constant_outputs) s << "output '" << c << "' is constant: indices NaN\n";
+  s << std::fixed << std::setprecision(4);
+  for (size_t k = 0; k < outputs.size(); ++k) {
+    s << "output '" << outputs[k] << "'\n";
+    for (size_t i = 0; i < parameters.size(); ++i) {
+      const auto ii = static_cast<Eigen::Index>(i), kk = static_cast<Eigen::Index>(k);
+      s << "  " << std::setw(14) << std::left << parameters[i] << std::right << " S1 "
+        << std::setw(8) << estimate.S1(ii, kk) << " [" << estimate.S1_low(ii, kk) << ", "
+        << estimate.S1_high(ii, kk) << "]  ST " << std::setw(8) << estimate.ST(ii, kk) << " ["
+        << estimate.ST_low(ii, kk) << ", " << estimate.ST_high(ii, kk) << "]\n";
+    }
+  }
+  return s.str();
+}
+
+}  // namespace sigmaheart::estimation::sensitivity

@@ -1,0 +1,263 @@
+#include "estimation/specificity/specificity.h"
+
+#include <Eigen/Cholesky>
+
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <limits>
+#include <mutex>
+#include <numeric>
+#include <sstream>
+#include <stdexcept>
+
+namespace sigmaheart::estimation::specificity {
+
+namespace {
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+}
+
+std::string SpecificityOptions::validate() const {
+  if (parameters.empty()) return "specificity study: no parameters named";
+  if (!(lda_shrinkage >= 0.0 && lda_shrinkage <= 1.0)) {
+    return "specificity study: lda_shrinkage must be in [0, 1]";
+  }
+  if (group_a.empty() != group_b.empty()) {
+    return "specificity study: give both group_a and group_b, or neither";
+  }
+  if (!group_a.empty() && group_a == group_b) return "specificity study: group_a equals group_b";
+  if (case_threads < 1) return "specificity study: case_threads must be >= 1";
+  return {};
+}
+
+ClassifierResult loo_lda(const Eigen::MatrixXd& X, const std::vector<int>& label, double shrinkage) {
+  ClassifierResult c;
+  const int n = static_cast<int>(X.rows());
+  const int d = static_cast<int>(X.cols());
+  const int na = static_cast<int>(std::count(label.begin(), label.end(), 0));
+  const int nb = n - na;
+  c.total = n;
+  // Every training set must keep a case of each group and a within-group degree of freedom.
+  if (na < 2 || nb < 2) {
+    c.message = "leave-one-out LDA needs at least 2 cases per group";
+    return c;
+  }
+  c.predicted_label.assign(static_cast<size_t>(n), -1);
+  for (int out = 0; out < n; ++out) {
+    // Training set: every case but `out`, standardised by its own mean and sd.
+    std::vector<int> train;
+    for (int i = 0; i < n; ++i) {
+      if (i != out) train.push_back(i);
+    }
+    const auto nt = static_cast<double>(train.size());
+    Eigen::RowVectorXd mean = Eigen::RowVectorXd::Zero(d), sd = Eigen::RowVectorXd::Zero(d);
+    for (int i : train) mean += X.row(i);
+    mean /= nt;
+    for (int i : train) sd += (X.row(i) - mean).cwiseAbs2();
+    sd = (sd / (nt - 1.0)).cwiseSqrt();
+    for (int j = 0; j < d; ++j) {
+      if (!(sd(j) > 0)) sd(j) = 1.0;
+    }
+    auto standard = [&](int i) { return ((X.row(i) - mean).array() / sd.array()).matrix(); };
+    Eigen::RowVectorXd mu[2] = {Eigen::RowVectorXd::Zero(d), Eigen::RowVectorXd::Zero(d)};
+    int count[2] = {0, 0};
+    for (int i : train) {
+      mu[label[static_cast<size_t>(i)]] += standard(i);
+      ++count[label[static_cast<size_t>(i)]];
+    }
+    mu[0] /= count[0];
+    mu[1] /= count[1];
+    Eigen::MatrixXd S = Eigen::MatrixXd::Zero(d, d);
+    for (int i : train) {
+      const Eigen::RowVectorXd r = standard(i) - mu[label[static_cast<size_t>(i)]];
+      S += r.transpose() * r;
+    }
+    S /= (nt - 2.0);
+    Eigen::MatrixXd Sl = (1.0 - shrinkage) * S;
+    Sl.diagonal() += shrinkage * S.diagonal();
+    // A feature with no within-group spread in the training set: a tiny ridge keeps S invertible.
+    Sl.diagonal().array() += 1e-10 * std::max(1.0, S.diagonal().maxCoeff());
+    const Eigen::VectorXd w = Sl.ldlt().solve((mu[0] - mu[1]).transpose());
+    const double score = (standard(out) - 0.5 * (mu[0] + mu[1])).dot(w.transpose()) +
+                         std::log(static_cast<double>(count[0]) / count[1]);
+    const int predicted = score > 0 ? 0 : 1;
+    c.predicted_label[static_cast<size_t>(out)] = predicted;
+    if (predicted == label[static_cast<size_t>(out)]) ++c.correct;
+  }
+  c.valid = true;
+  c.accuracy = static_cast<double>(c.correct) / n;
+  return c;
+}
+
+SpecificityResult compare_groups(const std::vector<CaseEstimate>& cases,
+                                 const SpecificityOptions& options) {
+  if (const std::string m = options.validate(); !m.empty()) throw std::invalid_argument(m);
+  const int p = static_cast<int>(options.parameters.size());
+  SpecificityResult r;
+  r.group_a = options.group_a;
+  r.group_b = options.group_b;
+  if (r.group_a.empty()) {
+    std::vector<std::string> labels;
+    for (const auto& c : cases) {
+      if (std::find(labels.begin(), labels.end(), c.group) == labels.end()) labels.push_back(c.group);
+    }
+    if (labels.size() != 2) {
+      throw std::invalid_argument("specificity study: the cohort has " +
+                                  std::to_string(labels.size()) +
+                                  " groups; name the two to compare (group_a, group_b)");
+    }
+    r.group_a = labels[0];
+    r.group_b = labels[1];
+  }
+  std::vector<int> label;
+  for (const auto& c : cases) {
+    if (c.group != r.group_a && c.group != r.group_b) continue;
+    if (c.mean.size() != p || c.sd.size() != p) {
+      throw std::invalid_argument("specificity study: case '" + c.id + "' has " +
+                                  std::to_string(c.mean.size()) + " means and " +
+                                  std::to_string(c.sd.size()) + " sds for " + std::to_string(p) +
+                                  " parameters");
+    }
+    if (!c.mean.allFinite()) {
+      throw std::invalid_argument("specificity study: case '" + c.id + "' has non-finite means");
+    }
+    r.cases.push_back(c);
+    label.push_back(c.group == r.group_a ? 0 : 1);
+  }
+  const int n = static_cast<int>(r.cases.size());
+  const int na = static_cast<int>(std::count(label.begin(), label.end(), 0));
+  if (na < 2 || n - na < 2) {
+    throw std::invalid_argument("specificity study: groups '" + r.group_a + "' (" +
+                                std::to_string(na) + " cases) and '" + r.group_b + "' (" +
+                                std::to_string(n - na) + " cases) need at least 2 cases each");
+  }
+
+  Eigen::MatrixXd X(n, p), SD(n, p);
+  for (int i = 0; i < n; ++i) {
+    X.row(i) = r.cases[static_cast<size_t>(i)].mean.transpose();
+    SD.row(i) = r.cases[static_cast<size_t>(i)].sd.transpose();
+  }
+  for (int j = 0; j < p; ++j) {
+    Eigen::VectorXd xa(na), xb(n - na), sa(na), sb(n - na);
+    for (int i = 0, ia = 0, ib = 0; i < n; ++i) {
+      if (label[static_cast<size_t>(i)] == 0) {
+        xa(ia) = X(i, j);
+        sa(ia++) = SD(i, j);
+      } else {
+        xb(ib) = X(i, j);
+        sb(ib++) = SD(i, j);
+      }
+    }
+    ParameterSeparation s;
+    s.name = options.parameters[static_cast<size_t>(j)];
+    s.a = summarise(xa);
+    s.b = summarise(xb);
+    s.posterior_sd_a = sa.mean();
+    s.posterior_sd_b = sb.mean();
+    s.effect = effect_size(xa, xb);
+    s.welch = welch_t_test(xa, xb);
+    s.mann_whitney = mann_whitney(xa, xb);
+    r.parameters.push_back(s);
+  }
+  r.ranking.resize(static_cast<size_t>(p));
+  std::iota(r.ranking.begin(), r.ranking.end(), 0);
+  std::stable_sort(r.ranking.begin(), r.ranking.end(), [&](int i, int j) {
+    const auto& a = r.parameters[static_cast<size_t>(i)];
+    const auto& b = r.parameters[static_cast<size_t>(j)];
+    const double da = std::abs(a.mann_whitney.auc - 0.5), db = std::abs(b.mann_whitney.auc - 0.5);
+    if (da != db) return da > db;
+    const double pa = std::isnan(a.welch.p_value) ? 2.0 : a.welch.p_value;
+    const double pb = std::isnan(b.welch.p_value) ? 2.0 : b.welch.p_value;
+    return pa < pb;
+  });
+
+  r.classifier = loo_lda(X, label, options.lda_shrinkage);
+  for (int l : r.classifier.predicted_label) r.classifier.predicted.push_back(l == 0 ? r.group_a : r.group_b);
+  return r;
+}
+
+SpecificityResult run_specificity(const std::vector<CohortCase>& cases, const CalibrateFn& calibrate,
+                                  const SpecificityOptions& options) {
+  if (const std::string m = options.validate(); !m.empty()) throw std::invalid_argument(m);
+  if (!calibrate) throw std::invalid_argument("specificity study: no calibration given");
+  const int n = static_cast<int>(cases.size());
+  std::vector<CaseCalibration> results(static_cast<size_t>(n));
+  std::mutex progress_mutex;
+  int done = 0;
+  auto one = [&](int i) {
+    const CohortCase& c = cases[static_cast<size_t>(i)];
+    CaseCalibration cal;
+    try {
+      cal = calibrate(c);
+    } catch (const std::exception& e) {
+      cal.status = model::Status::Error(model::StatusCode::kInvalidArgument,
+                                        std::string("calibration threw: ") + e.what());
+    }
+    results[static_cast<size_t>(i)] = std::move(cal);
+    if (options.progress) {
+      std::lock_guard<std::mutex> lock(progress_mutex);
+      options.progress(++done, n, c.id);
+    }
+  };
+  if (options.case_threads > 1 && n > 1) {
+#pragma omp parallel for schedule(dynamic, 1) num_threads(std::min(options.case_threads, n))
+    for (int i = 0; i < n; ++i) one(i);
+  } else {
+    for (int i = 0; i < n; ++i) one(i);
+  }
+
+  std::vector<CaseEstimate> estimates;
+  std::vector<std::string> failed;
+  std::vector<model::Status> failure;
+  for (int i = 0; i < n; ++i) {
+    const CohortCase& c = cases[static_cast<size_t>(i)];
+    CaseCalibration& cal = results[static_cast<size_t>(i)];
+    if (cal.status.ok() && !(cal.mean.allFinite() &&
+                             cal.mean.size() == static_cast<Eigen::Index>(options.parameters.size()))) {
+      cal.status = model::Status::Error(model::StatusCode::kBadOutput,
+                                        "calibration returned non-finite or wrongly sized means");
+    }
+    if (cal.status.ok()) {
+      if (cal.sd.size() != cal.mean.size()) cal.sd = Eigen::VectorXd::Constant(cal.mean.size(), kNaN);
+      estimates.push_back({c.id, c.group, cal.mean, cal.sd});
+    } else {
+      failed.push_back(c.id);
+      failure.push_back(cal.status);
+    }
+  }
+  SpecificityResult r = compare_groups(estimates, options);
+  r.failed_cases = std::move(failed);
+  r.failure_status = std::move(failure);
+  return r;
+}
+
+std::string SpecificityResult::report() const {
+  std::ostringstream s;
+  const auto na = std::count_if(cases.begin(), cases.end(),
+                                [&](const CaseEstimate& c) { return c.group == group_a; });
+  s << "Specificity: '" << group_a << "' (" << na << " cases) vs '" << group_b << "' ("
+    << cases.size() - static_cast<size_t>(na) << " cases)";
+  if (!failed_cases.empty()) s << ", " << failed_cases.size() << " calibrations failed";
+  s << "\n";
+  for (size_t i = 0; i < failed_cases.size(); ++i) {
+    s << "  failed: " << failed_cases[i] << ": " << failure_status[i].message << "\n";
+  }
+  s << std::setprecision(4);
+  for (int j : ranking) {
+    const ParameterSeparation& q = parameters[static_cast<size_t>(j)];
+    s << "  " << std::setw(14) << std::left << q.name << std::right << " " << q.a.mean << " +- "
+      << q.a.sd << " vs " << q.b.mean << " +- " << q.b.sd << "  g " << q.effect.hedges_g
+      << "  Welch t " << q.welch.t << " (df " << q.welch.df << ", p " << q.welch.p_value
+      << ")  U " << q.mann_whitney.U << " (p " << q.mann_whitney.p_value
+      << (q.mann_whitney.exact ? ", exact" : "") << ")  AUC " << q.mann_whitney.auc << "\n";
+  }
+  if (classifier.valid) {
+    s << "leave-one-out LDA accuracy " << classifier.accuracy << " (" << classifier.correct << "/"
+      << classifier.total << ")\n";
+  } else {
+    s << "classifier: " << classifier.message << "\n";
+  }
+  return s.str();
+}
+
+}  // namespace sigmaheart::estimation::specificity

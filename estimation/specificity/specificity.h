@@ -1,0 +1,115 @@
+// Specificity study (ESTIMATION.md s.7): calibrate every case of a cohort with the same
+// configuration, then ask which parameters separate two groups (e.g. volunteers and heart-failure
+// patients). Per parameter: group means and spreads, effect sizes, Welch's t and Mann-Whitney U
+// tests, the AUC; jointly: the leave-one-out accuracy of a shrunk linear discriminant.
+//
+// Read only parameters that are both sensitive (a sensitivity study) and well identified (small
+// posterior spread, reported here per group as the mean posterior standard deviation).
+#pragma once
+
+#include "estimation/specificity/statistics.h"
+#include "model/simulator.h"
+
+#include <Eigen/Core>
+
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace sigmaheart::estimation::specificity {
+
+// One case of a cohort: an identifier, its group label, and an opaque reference the calibration
+// callable understands (e.g. the path of its observation file; this library never opens it).
+struct CohortCase {
+  std::string id;
+  std::string group;
+  std::string source;
+};
+
+// What a calibration returns for one case: posterior mean and standard deviation of each studied
+// parameter (physical units, the order of SpecificityOptions::parameters), or a failed Status.
+struct CaseCalibration {
+  model::Status status;
+  Eigen::VectorXd mean;
+  Eigen::VectorXd sd;
+};
+using CalibrateFn = std::function<CaseCalibration(const CohortCase&)>;
+
+// A calibrated case, the input of the statistics.
+struct CaseEstimate {
+  std::string id;
+  std::string group;
+  Eigen::VectorXd mean;
+  Eigen::VectorXd sd;
+};
+
+struct SpecificityOptions {
+  std::vector<std::string> parameters;  // names, in the order of the calibration's vectors
+  // The compared groups; both empty: the two labels of the cohort in order of first appearance
+  // (the cohort must then have exactly two). Effect sizes and U are for group_a over group_b.
+  std::string group_a, group_b;
+  // Linear discriminant (Fisher 1936) on the standardised posterior means with the pooled
+  // within-group covariance shrunk towards its diagonal, S = (1 - lambda) S_pooled + lambda
+  // diag(S_pooled) (Friedman 1989, J Am Stat Assoc 84:165, regularised discriminant analysis),
+  // priors the training group fractions. lambda in [0, 1].
+  double lda_shrinkage = 0.2;
+  // run_specificity only: how many cases are calibrated at the same time (OpenMP threads, dynamic
+  // schedule, one case per thread). 1: in order. With more than 1 the calibrate callable must be
+  // safe to call concurrently (each call on its own simulator); results do not depend on it.
+  int case_threads = 1;
+  // Called after each calibrated case (run_specificity only; serialised, possibly from a worker
+  // thread, so `done` counts finished cases, not a position in the cohort).
+  std::function<void(int done, int total, const std::string& id)> progress;
+  std::string validate() const;
+};
+
+struct ParameterSeparation {
+  std::string name;
+  GroupSummary a, b;              // posterior means across the cases of each group
+  double posterior_sd_a = 0.0;    // mean posterior standard deviation over the cases of group a
+  double posterior_sd_b = 0.0;
+  EffectSize effect;              // a over b
+  WelchResult welch;
+  MannWhitneyResult mann_whitney; // U, p, AUC = P(a > b) + P(a = b)/2, Hanley-McNeil SE
+};
+
+struct ClassifierResult {
+  // false when a group has fewer than 2 cases (message says why). With 2, each held-out case of
+  // that group is classified from a single training case of its group: read with care.
+  bool valid = false;
+  std::string message;
+  int correct = 0;
+  int total = 0;
+  double accuracy = 0.0;               // leave-one-out
+  std::vector<int> predicted_label;    // per case: 0 = group a, 1 = group b
+  std::vector<std::string> predicted;  // the same as group names (compare_groups fills it)
+};
+
+struct SpecificityResult {
+  std::string group_a, group_b;
+  std::vector<CaseEstimate> cases;                 // the cases that entered the statistics
+  std::vector<std::string> failed_cases;           // ids of cases whose calibration failed
+  std::vector<model::Status> failure_status;       // their Status, same order
+  std::vector<ParameterSeparation> parameters;     // order of SpecificityOptions::parameters
+  // Parameters by separation: decreasing |AUC - 0.5|, ties by increasing Welch p-value.
+  std::vector<int> ranking;
+  ClassifierResult classifier;
+
+  std::string report() const;
+};
+
+// The statistics on already-calibrated cases. Throws std::invalid_argument on bad options, when a
+// case's vectors do not match the parameters, or when a group has fewer than 2 cases.
+SpecificityResult compare_groups(const std::vector<CaseEstimate>& cases,
+                                 const SpecificityOptions& options);
+
+// Calibrates each case with `calibrate` (in order, or options.case_threads at a time; a calibration
+// may itself run in parallel), drops and lists the failed cases (a failed Status or an exception;
+// listed in cohort order), then compare_groups.
+SpecificityResult run_specificity(const std::vector<CohortCase>& cases, const CalibrateFn& calibrate,
+                                  const SpecificityOptions& options);
+
+// Leave-one-out accuracy of the shrunk LDA on rows of X (cases x features) with labels in {0, 1}.
+ClassifierResult loo_lda(const Eigen::MatrixXd& X, const std::vector<int>& label, double shrinkage);
+
+}  // namespace sigmaheart::estimation::specificity

@@ -1,0 +1,123 @@
+#include "model/fem/element.h"
+
+#include <stdexcept>
+
+namespace sigmaheart::fem {
+namespace {
+
+std::vector<QuadraturePoint3> make_tet(int degree) {
+  std::vector<QuadraturePoint3> r;
+  auto sym4 = [&](double a, double w) {  // (a,a,a,1-3a) and permutations
+    const double b = 1.0 - 3.0 * a;
+    const double L[4][4] = {{b, a, a, a}, {a, b, a, a}, {a, a, b, a}, {a, a, a, b}};
+    for (auto& l : L) r.push_back({Eigen::Vector3d(l[1], l[2], l[3]), w});
+  };
+  auto sym6 = [&](double a, double w) {  // (a,a,b,b) with b = 1/2 - a, 6 permutations
+    const double b = 0.5 - a;
+    const double L[6][4] = {{a, a, b, b}, {a, b, a, b}, {a, b, b, a}, {b, a, a, b}, {b, a, b, a}, {b, b, a, a}};
+    for (auto& l : L) r.push_back({Eigen::Vector3d(l[1], l[2], l[3]), w});
+  };
+  if (degree <= 1) {
+    r.push_back({Eigen::Vector3d(0.25, 0.25, 0.25), 1.0 / 6.0});
+  } else if (degree == 2) {
+    sym4(0.1381966011250105, 1.0 / 24.0);
+  } else if (degree <= 5) {
+    sym4(0.0927352503108912, 0.01224884051939366);
+    sym4(0.3108859192633006, 0.01878132095300264);
+    sym6(0.0455037041256496, 0.007091003462846911);
+  } else {
+    throw std::invalid_argument("tet_rule: degree above 5 not available");
+  }
+  return r;
+}
+
+std::vector<QuadraturePoint2> make_tri(int degree) {
+  std::vector<QuadraturePoint2> r;
+  auto sym3 = [&](double a, double w) {
+    const double b = 1.0 - 2.0 * a;
+    r.push_back({Eigen::Vector2d(a, a), w});
+    r.push_back({Eigen::Vector2d(b, a), w});
+    r.push_back({Eigen::Vector2d(a, b), w});
+  };
+  if (degree <= 2) {
+    sym3(1.0 / 6.0, 1.0 / 6.0);
+  } else if (degree <= 4) {
+    sym3(0.445948490915965, 0.5 * 0.223381589678011);
+    sym3(0.091576213509771, 0.5 * 0.109951743655322);
+  } else {
+    throw std::invalid_argument("tri_rule: degree above 4 not available");
+  }
+  return r;
+}
+
+}  // namespace
+
+const std::vector<QuadraturePoint3>& tet_rule(int degree) {
+  static const std::vector<QuadraturePoint3> r1 = make_tet(1), r2 = make_tet(2), r5 = make_tet(5);
+  if (degree <= 1) return r1;
+  if (degree == 2) return r2;
+  if (degree <= 5) return r5;
+  throw std::invalid_argument("tet_rule: degree above 5 not available");
+}
+
+const std::vector<QuadraturePoint2>& tri_rule(int degree) {
+  static const std::vector<QuadraturePoint2> r2 = make_tri(2), r4 = make_tri(4);
+  if (degree <= 2) return r2;
+  if (degree <= 4) return r4;
+  throw std::invalid_argument("tri_rule: degree above 4 not available");
+}
+
+void tet_shape(int order, const Eigen::Vector3d& xi, Eigen::VectorXd& N, Eigen::MatrixXd& dN) {
+  const double L[4] = {1.0 - xi[0] - xi[1] - xi[2], xi[0], xi[1], xi[2]};
+  // dL_i / dxi_d
+  const double dL[4][3] = {{-1, -1, -1}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  if (order == 1) {
+    N.resize(4);
+    dN.resize(4, 3);
+    for (int a = 0; a < 4; ++a) {
+      N[a] = L[a];
+      for (int d = 0; d < 3; ++d) dN(a, d) = dL[a][d];
+    }
+    return;
+  }
+  N.resize(10);
+  dN.resize(10, 3);
+  for (int a = 0; a < 4; ++a) {
+    N[a] = L[a] * (2 * L[a] - 1);
+    for (int d = 0; d < 3; ++d) dN(a, d) = (4 * L[a] - 1) * dL[a][d];
+  }
+  const int E[6][2] = {{0, 1}, {1, 2}, {0, 2}, {0, 3}, {1, 3}, {2, 3}};
+  for (int e = 0; e < 6; ++e) {
+    const int i = E[e][0], j = E[e][1];
+    N[4 + e] = 4 * L[i] * L[j];
+    for (int d = 0; d < 3; ++d) dN(4 + e, d) = 4 * (dL[i][d] * L[j] + L[i] * dL[j][d]);
+  }
+}
+
+void tri_shape(int order, const Eigen::Vector2d& xi, Eigen::VectorXd& N, Eigen::MatrixXd& dN) {
+  const double L[3] = {1.0 - xi[0] - xi[1], xi[0], xi[1]};
+  const double dL[3][2] = {{-1, -1}, {1, 0}, {0, 1}};
+  if (order == 1) {
+    N.resize(3);
+    dN.resize(3, 2);
+    for (int a = 0; a < 3; ++a) {
+      N[a] = L[a];
+      for (int d = 0; d < 2; ++d) dN(a, d) = dL[a][d];
+    }
+    return;
+  }
+  N.resize(6);
+  dN.resize(6, 2);
+  for (int a = 0; a < 3; ++a) {
+    N[a] = L[a] * (2 * L[a] - 1);
+    for (int d = 0; d < 2; ++d) dN(a, d) = (4 * L[a] - 1) * dL[a][d];
+  }
+  const int E[3][2] = {{0, 1}, {1, 2}, {2, 0}};
+  for (int e = 0; e < 3; ++e) {
+    const int i = E[e][0], j = E[e][1];
+    N[3 + e] = 4 * L[i] * L[j];
+    for (int d = 0; d < 2; ++d) dN(3 + e, d) = 4 * (dL[i][d] * L[j] + L[i] * dL[j][d]);
+  }
+}
+
+}  // namespace sigmaheart::fem

@@ -1,0 +1,159 @@
+#include "model/fem/material.h"
+
+#include <Eigen/Dense>
+
+#include <cmath>
+#include <stdexcept>
+
+namespace sigmaheart::fem {
+namespace {
+
+// T with vec(R^T E R) = T vec(E) (row-major vec): T(3a+b, 3I+J) = R(I,a) R(J,b).
+Matrix9d rotation_operator(const Frame& R) {
+  Matrix9d T;
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b)
+      for (int I = 0; I < 3; ++I)
+        for (int J = 0; J < 3; ++J) T(3 * a + b, 3 * I + J) = R(I, a) * R(J, b);
+  return T;
+}
+
+Eigen::Matrix<double, 9, 1> vec(const Eigen::Matrix3d& A) {
+  Eigen::Matrix<double, 9, 1> v;
+  for (int I = 0; I < 3; ++I)
+    for (int J = 0; J < 3; ++J) v[3 * I + J] = A(I, J);
+  return v;
+}
+
+Eigen::Matrix3d unvec(const Eigen::Matrix<double, 9, 1>& v) {
+  Eigen::Matrix3d A;
+  for (int I = 0; I < 3; ++I)
+    for (int J = 0; J < 3; ++J) A(I, J) = v[3 * I + J];
+  return A;
+}
+
+// Outer product of two symmetric tensors as a 9x9 operator.
+Matrix9d outer(const Eigen::Matrix3d& A, const Eigen::Matrix3d& B) { return vec(A) * vec(B).transpose(); }
+
+// Symmetrised "A dC B" operator for symmetric A: X -> 1/2 (A X A^T + A X^T A^T) components
+// (A_IK A_JL + A_IL A_JK)/2.
+Matrix9d sym_product(const Eigen::Matrix3d& A) {
+  Matrix9d M;
+  for (int I = 0; I < 3; ++I)
+    for (int J = 0; J < 3; ++J)
+      for (int K = 0; K < 3; ++K)
+        for (int L = 0; L < 3; ++L) M(3 * I + J, 3 * K + L) = 0.5 * (A(I, K) * A(J, L) + A(I, L) * A(J, K));
+  return M;
+}
+
+}  // namespace
+
+std::string GuccioneParameters::validate() const {
+  if (!(C > 0)) return "Guccione C must be positive";
+  if (!(bf >= 0 && bt >= 0 && bfs >= 0)) return "Guccione bf, bt, bfs must be non-negative";
+  return {};
+}
+
+Guccione::Guccione(const GuccioneParameters& p) : p_(p) {
+  if (auto m = p.validate(); !m.empty()) throw std::invalid_argument(m);
+}
+
+namespace {
+Eigen::Matrix<double, 9, 1> guccione_weights(const GuccioneParameters& p) {
+  // Local components ordered (f, s, n) x (f, s, n).
+  Eigen::Matrix<double, 9, 1> b;
+  b << p.bf, p.bfs, p.bfs,  //
+      p.bfs, p.bt, p.bt,    //
+      p.bfs, p.bt, p.bt;
+  return b;
+}
+}  // namespace
+
+namespace {
+Eigen::Matrix3d isochoric_strain(const Eigen::Matrix3d& E) {
+  const Eigen::Matrix3d C = Eigen::Matrix3d::Identity() + 2.0 * E;
+  return 0.5 * (std::pow(C.determinant(), -1.0 / 3.0) * C - Eigen::Matrix3d::Identity());
+}
+}  // namespace
+
+double Guccione::energy(const Eigen::Matrix3d& E_in, const Frame& R) const {
+  const Eigen::Matrix3d E = p_.isochoric ? isochoric_strain(E_in) : E_in;
+  const Eigen::Matrix3d El = R.transpose() * E * R;
+  const auto b = guccione_weights(p_);
+  const double Q = (b.array() * vec(El).array().square()).sum();
+  return 0.5 * p_.C * (std::exp(Q) - 1.0);
+}
+
+void Guccione::stress(const Eigen::Matrix3d& E, const Frame& R, Eigen::Matrix3d& S, Matrix9d& D) const {
+  if (!p_.isochoric) {
+    stress_full(E, R, S, D);
+    return;
+  }
+  // Isochoric split (Holzapfel, Nonlinear Solid Mechanics, eq. 6.91 and 6.168):
+  //   S = J^-2/3 DEV(S_bar), DEV(X) = X - (X:C)/3 C^-1,
+  //   D = P (J^-4/3 D_bar) P^T + 2/3 (J^-2/3 S_bar:C) P~ - 2/3 (C^-1 (x) S + S (x) C^-1),
+  //   P = I - 1/3 C^-1 (x) C,  P~ = C^-1 (.) C^-1 - 1/3 C^-1 (x) C^-1.
+  const Eigen::Matrix3d I = Eigen::Matrix3d::Identity();
+  const Eigen::Matrix3d C = I + 2.0 * E;
+  const Eigen::Matrix3d Ci = C.inverse();
+  const double j23 = std::pow(C.determinant(), -1.0 / 3.0);  // J^-2/3
+  Eigen::Matrix3d Sb;
+  Matrix9d Db;
+  stress_full(0.5 * (j23 * C - I), R, Sb, Db);
+  const double trS = (Sb.array() * C.array()).sum();
+  S = j23 * (Sb - trS / 3.0 * Ci);
+  const Matrix9d Pm = sym_product(I) - vec(Ci) * vec(C).transpose() / 3.0;
+  const Matrix9d Pt = sym_product(Ci) - outer(Ci, Ci) / 3.0;
+  D = Pm * (j23 * j23 * Db) * Pm.transpose() + 2.0 / 3.0 * j23 * trS * Pt - 2.0 / 3.0 * (outer(Ci, S) + outer(S, Ci));
+}
+
+void Guccione::stress_full(const Eigen::Matrix3d& E, const Frame& R, Eigen::Matrix3d& S, Matrix9d& D) const {
+  // Q = e_l^T B e_l with e_l = T e, B diagonal: dQ/de = 2 T^T B e_l.
+  const Matrix9d T = rotation_operator(R);
+  const auto b = guccione_weights(p_);
+  const Eigen::Matrix<double, 9, 1> el = T * vec(E);
+  const double Q = (b.array() * el.array().square()).sum();
+  const double eQ = std::exp(Q);
+  const Eigen::Matrix<double, 9, 1> g = T.transpose() * (b.array() * el.array()).matrix();  // dQ/de / 2
+  S = unvec(p_.C * eQ * g);
+  // T^T B T treats E_fs and E_sf as independent; the symmetric projection gives the minor-
+  // symmetric tangent that acts correctly on any (also non-symmetric) F^T dF.
+  const Matrix9d Psym = sym_product(Eigen::Matrix3d::Identity());
+  D = p_.C * eQ * (Psym * T.transpose() * b.asDiagonal() * T * Psym + 2.0 * g * g.transpose());
+}
+
+std::string MooneyRivlinParameters::validate() const {
+  if (!(c1 > 0) || !(c2 >= 0)) return "Mooney-Rivlin needs c1 > 0, c2 >= 0";
+  return {};
+}
+
+MooneyRivlin::MooneyRivlin(const MooneyRivlinParameters& p) : p_(p) {
+  if (auto m = p.validate(); !m.empty()) throw std::invalid_argument(m);
+}
+
+double MooneyRivlin::energy(const Eigen::Matrix3d& E, const Frame&) const {
+  const Eigen::Matrix3d C = Eigen::Matrix3d::Identity() + 2.0 * E;
+  const double I1 = C.trace(), I2 = 0.5 * (I1 * I1 - (C * C).trace()), I3 = C.determinant();
+  return p_.c1 * (std::pow(I3, -1.0 / 3.0) * I1 - 3.0) + p_.c2 * (std::pow(I3, -2.0 / 3.0) * I2 - 3.0);
+}
+
+void MooneyRivlin::stress(const Eigen::Matrix3d& E, const Frame&, Eigen::Matrix3d& S, Matrix9d& D) const {
+  // W(C) = c1 f1 + c2 f2, f1 = I3^-1/3 I1, f2 = I3^-2/3 I2; S = 2 dW/dC, D = 4 d2W/dC2.
+  const Eigen::Matrix3d I = Eigen::Matrix3d::Identity();
+  const Eigen::Matrix3d C = I + 2.0 * E;
+  const Eigen::Matrix3d Ci = C.inverse();
+  const double I1 = C.trace(), I2 = 0.5 * (I1 * I1 - (C * C).trace()), I3 = C.determinant();
+  const double a = std::pow(I3, -1.0 / 3.0), b = a * a;
+  const Eigen::Matrix3d dg = I1 * I - C;  // dI2/dC
+  const Eigen::Matrix3d df1 = a * (I - I1 / 3.0 * Ci);
+  const Eigen::Matrix3d df2 = b * (dg - 2.0 / 3.0 * I2 * Ci);
+  S = 2.0 * (p_.c1 * df1 + p_.c2 * df2);
+  const Matrix9d ICi = sym_product(Ci);
+  const Matrix9d d2f1 = -a / 3.0 * (outer(I, Ci) + outer(Ci, I) - I1 / 3.0 * outer(Ci, Ci) - I1 * ICi);
+  const Matrix9d d2g = outer(I, I) - sym_product(I);
+  const Matrix9d d2f2 =
+      -2.0 / 3.0 * b * outer(dg - 2.0 / 3.0 * I2 * Ci, Ci) + b * (d2g - 2.0 / 3.0 * outer(Ci, dg) + 2.0 / 3.0 * I2 * ICi);
+  D = 4.0 * (p_.c1 * d2f1 + p_.c2 * d2f2);
+}
+
+}  // namespace sigmaheart::fem

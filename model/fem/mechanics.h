@@ -1,0 +1,142 @@
+// Quasi-static hyperelastic mechanics of the myocardium: total Lagrangian, mixed displacement-
+// pressure (u-p) formulation, Newton's method with a sparse direct solver.
+//
+// Discretisation: Taylor-Hood tetrahedra (quadratic displacement, linear pressure on the
+// vertices) on a quadratic mesh; on a linear mesh P1-P1 is available but locks/is unstable for
+// incompressible laws and is only meant for tests. The stored energy is
+//   Pi(u, p) = int W(E) dV - int p (J - 1) dV - int p^2 / (2 kappa) dV + active + external,
+// kappa = bulk_modulus (infinite: exactly incompressible, Land et al. 2015 eq. 2.4).
+// Active stress (Land et al. 2015, problem 3): S_act = Ta f0 (x) f0, Ta in Pa, per element scale.
+// Follower pressure on tagged surfaces: traction -P n da in the current configuration; its
+// tangent is the non-symmetric load stiffness (e.g. Bonet & Wood, Nonlinear Continuum Mechanics,
+// 2nd ed., eq. 8.37).
+// Units: SI (m, Pa); the library is unit-consistent, any consistent set works.
+#pragma once
+
+#include "model/fem/material.h"
+#include "model/fem/mesh.h"
+#include "model/fem/solver.h"
+
+#include <Eigen/Core>
+#include <Eigen/SparseCore>
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace sigmaheart::fem {
+
+using SparseMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
+
+enum class BaseCondition { kFixed, kSliding };  // sliding: normal (z) fixed, 3 rigid in-plane modes removed
+
+// Parse "fixed"/"sliding", "auto"/"sparselu"/"umfpack"; std::invalid_argument otherwise.
+BaseCondition parse_base_condition(const std::string& s);
+LinearSolver parse_linear_solver(const std::string& s);
+
+struct MechanicsOptions {
+  double bulk_modulus = 0.0;        // [Pa]; 0 or +inf: incompressible (Lagrange multiplier)
+  int quadrature_degree = 5;        // tetrahedron rule degree (2 or 5); 5 is exact for P2 mass terms
+  std::vector<int> pressure_surfaces = {kEndocardium};  // surface tags loaded by the pressure
+  int load_steps = 10;              // uniform increments from the start to the target load
+  int max_newton_iterations = 20;
+  double residual_tolerance = 1e-9;  // relative to the first residual of each load step
+  double volume_tolerance = 1e-10;   // |R_p| relative to the reference volume
+  int max_step_cuts = 6;             // halvings of a load increment after a failed Newton solve
+  LinearSolver linear_solver = LinearSolver::kAuto;
+  std::string validate() const;
+};
+
+struct Load {
+  double pressure = 0.0;        // [Pa] follower pressure on pressure_surfaces (cavity side)
+  double active_tension = 0.0;  // [Pa] Ta along the fibres
+};
+
+// Discrete unknowns: nodal displacements (3 per node, node-major) and vertex pressures.
+struct State {
+  Eigen::VectorXd u;  // [m]
+  Eigen::VectorXd p;  // [Pa], one per vertex
+};
+
+struct NewtonRecord {
+  double lambda = 0.0;        // load fraction reached at the end of the step (0..1)
+  int iterations = 0;
+  double residual = 0.0;      // final |R_u| [N]
+  bool converged = false;
+  std::vector<double> history;  // |R_u| before each Newton update, then the final one
+  std::string failure;          // empty, or why the step failed (inverted element, singular...)
+};
+
+struct Summary {
+  bool converged = false;
+  std::string message;                 // why it ended
+  std::vector<NewtonRecord> steps;     // one per attempted load step (cuts included)
+  int newton_iterations = 0;
+  double assembly_seconds = 0.0;
+  double solve_seconds = 0.0;
+  long long factor_nonzeros = 0;       // fill of the last LU factorisation (UMFPACK/SparseLU)
+  std::string brief_report() const;
+};
+
+// Per-step progress: (load fraction, Newton iterations of the step, final residual).
+using ProgressCallback = std::function<void(double lambda, int iterations, double residual)>;
+
+class Mechanics {
+ public:
+  // frames: one Frame per tetrahedron quadrature point (n_tets * n_qp, element-major) or one per
+  // tetrahedron. Throws std::invalid_argument on inconsistent inputs (message says what).
+  Mechanics(const Mesh& mesh, std::vector<Frame> frames, std::unique_ptr<Material> material,
+            MechanicsOptions options);
+
+  // Dirichlet conditions (homogeneous): all components of the nodes on `tag`.
+  void fix_surface(int tag);
+  // Base condition on surface `tag` (kFixed: all components; kSliding: z plus rigid modes).
+  void apply_base_condition(int tag, BaseCondition bc);
+  void fix_dof(int node, int component);
+  // Scale of Ta per tetrahedron (default 1), e.g. 0 in a scar.
+  void set_active_scale(std::vector<double> scale);
+
+  State initial_state() const;
+  int n_quadrature_points() const { return nqp_; }
+  int n_unknowns() const { return ndof_; }
+  const Mesh& mesh() const { return mesh_; }
+
+  // Residual and tangent in the full numbering (u then p), Dirichlet rows/columns replaced by
+  // identity. Returns false when some J <= 0 or a value is not finite (then outputs are junk).
+  bool assemble(const State& s, const Load& load, Eigen::VectorXd* residual, SparseMatrix* tangent) const;
+
+  // Moves the load from `from` to `to` in options.load_steps increments, Newton at each, cutting
+  // steps on failure. `state` holds the converged state at `from` on entry and the last
+  // converged state on return.
+  Summary solve(State& state, const Load& from, const Load& to, const ProgressCallback& progress = {});
+
+  // Current position of node n.
+  Eigen::Vector3d position(const State& s, int node) const;
+  // Fibre frame at the centroid of each tetrahedron (first quadrature point's frame when given
+  // per quadrature point: informative, for output).
+  std::vector<Frame> element_frames() const;
+
+ private:
+  void build_pattern();
+
+  Mesh mesh_;
+  std::vector<Frame> frames_;
+  bool frames_per_qp_ = false;
+  std::unique_ptr<Material> material_;
+  MechanicsOptions opt_;
+  int npt_ = 0, nqp_ = 0, ndof_ = 0;
+  std::vector<double> active_scale_;
+  std::vector<char> fixed_;
+  // Reference-configuration data per (element, qp): gradients (npt x 3), dV, linear N.
+  std::vector<double> grad_;  // n_tets * nqp * npt * 3
+  std::vector<double> dv_;
+  std::vector<Eigen::Vector4d> np_;  // per qp, P1 shape values
+  std::vector<int> load_faces_;      // indices into mesh.faces
+  SparseMatrix pattern_;
+  std::vector<int> elem_pos_;  // value positions per element local (nloc x nloc)
+  std::vector<int> face_pos_;
+  double ref_volume_ = 0.0;
+};
+
+}  // namespace sigmaheart::fem

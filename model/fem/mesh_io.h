@@ -1,0 +1,46 @@
+// The mesh-format layer of model/fem: the only file I/O of the library.
+//
+//  - gmsh .msh reader, ASCII format 2.2 and 4.x: 4- and 10-node tetrahedra, 3- and 6-node
+//    triangles with physical tags. Boundary faces are rebuilt from the tetrahedra (oriented
+//    outward) and take the physical tag of the matching triangle; physical names containing
+//    "endo", "epi", "base" map to kEndocardium, kEpicardium, kBase. Nodes are renumbered with the
+//    corners first. Errors: MeshReadError naming file, line and what was expected.
+//  - ParaView output: one .vtu per step (reference geometry, displacement and pressure point
+//    data, fibre, AHA segment and tag cell data) and a .pvd collection. Files are written to a
+//    temporary name and renamed.
+#pragma once
+
+#include "model/fem/material.h"
+#include "model/fem/mesh.h"
+
+#include <Eigen/Core>
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace sigmaheart::fem {
+
+class MeshReadError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// Reads a gmsh file; `text` variant parses a string (name used in messages).
+Mesh read_gmsh(const std::string& path);
+Mesh parse_gmsh(const std::string& text, const std::string& name = "<string>");
+
+struct VtuFields {
+  const Eigen::VectorXd* displacement = nullptr;  // 3 per node [m]
+  const Eigen::VectorXd* pressure = nullptr;      // per vertex [Pa] (interpolated to mid nodes)
+  const std::vector<Frame>* fibres = nullptr;     // per tetrahedron
+  const std::vector<int>* aha = nullptr;          // per tetrahedron
+};
+
+// Writes one VTU file (quadratic tetrahedra as VTK_QUADRATIC_TETRA). Throws std::runtime_error.
+void write_vtu(const std::string& path, const Mesh& mesh, const VtuFields& fields);
+
+// Writes a .pvd collection listing (time, file) pairs (file names relative to the .pvd).
+void write_pvd(const std::string& path, const std::vector<std::pair<double, std::string>>& steps);
+
+}  // namespace sigmaheart::fem

@@ -1,0 +1,137 @@
+// The regional lumped ventricle: N wall patches on one sphere (MultiPatch principle, Walmsley et
+// al. 2015, "Fast simulation of mechanical heterogeneity in the electrically asynchronous heart
+// using the MultiPatch module", PLoS Comput Biol 11:e1004284; MODELS.md section 3).
+//
+// All patches share one membrane tension and one curvature. Patch p has a reference area share
+// w_p = A0_p / A0 (sum 1), its own areal stretch C_p, BCS active state (e_c, k_c, tau_c),
+// contractility sigma0_p, activation time T_d,p, passive stiffness scale k_p and non-contractile
+// (scar) fraction f_p. With s = R / R0:
+//   C_p = s^2 c_p,  sum_p w_p c_p = 1        (compatibility sum A0_p C_p = 4 pi R^2)
+//   Sigma_p = k_p Sigma_pas(C_p) + eta dC_p/dt (1 + 2 C_p^-6) + (1 - f_p) sigma_1D,p
+//             + K_patch (c_p - 1)
+//   Sigma_p = Sigma_q for all p, q           (equal tension T = d0 Sigma / 2)
+//   rho d0 y'' + (d0/R0) s Sigma_bar = P_v s^2, Sigma_bar = sum_p w_p Sigma_p  (Laplace + inertia)
+// c_p is the patch's share of the current area relative to its reference share, so the regional
+// cavity volume (the cone from the centre, Marchesseau et al. 2013 Med Image Anal 17:816) is
+// V_p = V A_p / A = V w_p c_p. With one patch c_1 = 1 and the equations reduce to LumpedSphere's.
+//
+// K_patch (c_p - 1) is a mean-field tethering term, our addition to MultiPatch: its area-weighted
+// mean is K_patch (sum w_p c_p - 1) = 0, so it never loads the cavity, but it resists a patch's
+// area departing from its share. Reason: the sphere's passive law, tuned for the global
+// end-diastolic pressure-volume curve, is soft against active stresses of ~50 kPa, so without it
+// a late-activated LBBB patch grows to twice its area share while early ones shrink to a third
+// (measured with the sphere's defaults: shares 0.021-0.132 around 0.059). With the default 1e5 Pa
+// the LBBB shares stay within 0.046-0.072. K_patch = 0 is the pure MultiPatch of Walmsley et al.
+//
+// Time discretisation: the sphere's (sphere.cpp): backward Euler on every equation, y, P_d and each
+// patch's (k_c, tau_c) eliminated exactly, Newton on (v, P_v, P_ar, c_1..c_{N-1}, e_c,1..N), the
+// same row scaling and stopping test, on the sphere's beat-local time grid, with
+// dC_p/dt = 2 s (dy/dt / R0) c_p + s^2 (c_p - c_p^n)/h. One patch agrees with LumpedSphere to
+// about 1e-11 relative over a periodic run (the Newton tolerance, not bitwise: the test allows 1e-9).
+// Limits: no real tethering between patches (MODELS.md s.3); the geometry of the segments (area
+// shares, activation delays) comes from a truncated ellipsoid, the mechanics from the sphere.
+#pragma once
+
+#include "model/lumped/sphere.h"
+#include "model/simulator.h"
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace sigmaheart::model::lumped {
+
+// How activation times T_d,p (the nominal values of Td_XX) are set.
+enum class ActivationPattern {
+  kSynchronous,  // every patch at 0
+  kLbbb,         // left bundle branch block: septal breakthrough, latest basal lateral wall
+  kPacing,       // a pacing site at one segment, delays = wall path length / conduction velocity
+  kExplicit,     // RegionalOptions::activation_times
+};
+const char* to_string(ActivationPattern pattern);
+std::optional<ActivationPattern> parse_activation_pattern(const std::string& text);
+// "synchronous", "lbbb", "pacing", "explicit"
+
+struct RegionalOptions {
+  SphereOptions numerics;  // dt, beats, periodicity, Newton: the sphere's numerics
+  // Reference area shares of the patches (positive, summing to 1). Empty: the 17 AHA segments
+  // (aha17_area_shares()). Activation patterns other than synchronous/explicit need the 17.
+  std::vector<double> area_shares;
+  ActivationPattern activation = ActivationPattern::kSynchronous;
+  double lbbb_duration = 0.14;          // [s] latest minus earliest activation (QRS >= 130 ms)
+  int pacing_segment = 17;              // 1-based AHA segment of the pacing lead (17: apex)
+  double conduction_velocity = 0.6;     // [m/s] myocardial conduction for kPacing
+  std::vector<double> activation_times; // [s] one per patch, kExplicit
+  // Empty when valid, else a message naming the field.
+  std::string validate() const;
+  int patches() const;
+};
+
+// AHA 17-segment names (Cerqueira et al. 2002, Circulation 105:539), index 0 = segment 1.
+const std::vector<std::string>& aha17_segment_names();
+
+// Endocardial area shares of the 17 segments on the human-sized truncated prolate ellipsoid of
+// MODELS.md s.4 (endocardium r_s 25 mm, r_l 45 mm, base plane z = 13.2 mm): the cavity length L
+// from apex to base is cut into basal, mid and apical thirds (Cerqueira 2002), the apical third
+// losing a cap of height L/12 to segment 17; rings split 6 x 60 deg (basal, mid) and 4 x 90 deg
+// (apical). Result: basal 0.0615 each, mid 0.0589, apical 0.0550, apex 0.0573 (basal 37 %, mid
+// 35 %, apical + apex 28 %, near Cerqueira's 35/35/30 % mass split). Sums to 1.
+std::vector<double> aha17_area_shares();
+
+// Activation times [s] of the 17 segments for a pattern (kSynchronous, kLbbb, kPacing).
+//  kLbbb: a simplified septal-to-lateral sequence (MODELS.md s.3): the wave starts at a septal
+//    breakthrough (mid septum, between segments 8 and 9, after right-to-left transseptal
+//    conduction) and spreads along the wall; T_d = lbbb_duration (path - shortest) / (longest -
+//    shortest), so the mid septum is first (0) and the basal (infero)lateral wall last,
+//    lbbb_duration later (MODELS.md s.7: total LV activation >= 130-150 ms with LBBB).
+//  kPacing: T_d = path from the paced segment's centre / conduction_velocity.
+// Path lengths on the ellipsoid above: meridian arc between the two ring heights combined with the
+// circumferential arc at the mean ring radius, sqrt(ds_meridian^2 + (r_mean dphi)^2).
+std::vector<double> aha17_activation_times(const RegionalOptions& options);
+
+class RegionalVentricle final : public SteppableSimulator {
+ public:
+  explicit RegionalVentricle(RegionalOptions options = {});
+  RegionalVentricle(RegionalOptions options, ParameterSpace parameters);
+
+  // The sphere's parameters except sigma0, K_patch [Pa] (1e5), then per patch XX = 01..N:
+  //   sigma0_XX [Pa] (nominal: the sphere's sigma0), Td_XX [s] (from the activation pattern),
+  //   stiff_XX [1] (passive stiffness scale, 1), scar_XX [1] (non-contractile fraction, 0).
+  static ParameterSpace default_parameters(const RegionalOptions& options = {});
+
+  std::string name() const override { return "lumped-regional"; }
+  const ParameterSpace& parameters() const override { return parameters_; }
+  ParameterSpace& mutable_parameters() { return parameters_; }
+  const RegionalOptions& options() const { return options_; }
+  int patches() const { return n_; }
+  // A copy with another time step (the ROUKF's refine hook halves it on a failed member).
+  std::unique_ptr<RegionalVentricle> with_time_step(double dt) const;
+
+  // V_lv, P_lv, P_ar, P_at, q_ar, q_at, phase (as the sphere), P_d, then V_seg01..V_segN [m^3].
+  std::vector<Channel> channels() const override;
+  RunResult run(const Eigen::Ref<const Eigen::VectorXd>& theta) override;
+  std::unique_ptr<Simulator> clone() const override;
+
+  // y, dy_dt, P_v, P_ar, P_d, c_01..c_(N-1), (e_c, k_c, tau_c) per patch, last_open_valve.
+  std::vector<Channel> state_layout() const override;
+  State initial_state(const Eigen::Ref<const Eigen::VectorXd>& theta) override;
+  Status advance(State& state, const Eigen::Ref<const Eigen::VectorXd>& theta,
+                 double t_end) override;
+  Eigen::VectorXd sample(const State& state,
+                         const Eigen::Ref<const Eigen::VectorXd>& theta) const override;
+
+ private:
+  Status check_theta(const Eigen::Ref<const Eigen::VectorXd>& theta) const;
+  Status step_to(State& state, const Eigen::Ref<const Eigen::VectorXd>& theta, double t_end,
+                 int* newton_iterations, int* step_cuts) const;
+
+  RegionalOptions options_;
+  ParameterSpace parameters_;
+  int n_ = 1;                     // patches
+  std::vector<double> shares_;    // w_p
+  std::vector<int> global_;       // positions of the global parameters (sphere order, no sigma0)
+  std::vector<int> sigma0_, td_, stiff_, scar_;  // positions of the per-patch parameters
+};
+
+}  // namespace sigmaheart::model::lumped

@@ -1,0 +1,222 @@
+#include "model/lumped/shell.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace sigmaheart::model::lumped::shell {
+
+const std::vector<std::string>& global_names() {
+  static const std::vector<std::string> names = {
+      "rho",  "R0",     "d0",   "c1",   "c2",   "eta",  "Es",  "mu",  "alpha", "k0",
+      "k_ATP", "k_RS",  "APD",  "period", "K_at", "K_ar", "K_p", "R_p", "R_d", "C_p",
+      "C_d",  "P_sv",   "P_at0", "P_at_kick", "C_cav", "n0_slope", "n0_e_max", "c_exp", "b_exp"};
+  return names;
+}
+
+std::vector<int> global_indices(const ParameterSpace& space) {
+  std::vector<int> idx;
+  idx.reserve(global_names().size());
+  for (const auto& n : global_names()) idx.push_back(space.index_or_throw(n));
+  return idx;
+}
+
+Shell unpack(const Eigen::Ref<const Eigen::VectorXd>& theta, const std::vector<int>& global) {
+  auto at = [&](int k) { return theta(global[static_cast<size_t>(k)]); };
+  Shell m;
+  m.rho = at(kRho);
+  m.R0 = at(kR0);
+  m.d0 = at(kD0);
+  m.c1 = at(kC1);
+  m.c2 = at(kC2);
+  m.c_exp = at(kCexp);
+  m.b_exp = at(kBexp);
+  m.eta = at(kEta);
+  m.period = at(kPeriod);
+  m.act.Es = at(kEs);
+  m.act.mu = at(kMu);
+  m.act.alpha = at(kAlpha);
+  m.act.k0 = at(kK0);
+  m.act.sigma0 = 0.0;
+  m.act.k_ATP = at(kKATP);
+  m.act.k_RS = at(kKRS);
+  m.act.APD = at(kAPD);
+  m.act.n0_slope = at(kN0Slope);
+  m.act.n0_e_max = at(kN0Emax);
+  m.circ.K_at = at(kKat);
+  m.circ.K_ar = at(kKar);
+  m.circ.K_p = at(kKp);
+  m.circ.R_p = at(kRp);
+  m.circ.R_d = at(kRd);
+  m.circ.C_p = at(kCp);
+  m.circ.C_d = at(kCd);
+  m.circ.P_sv = at(kPsv);
+  m.circ.C_cav = at(kCcav);
+  m.atrial.P_at0 = at(kPat0);
+  m.atrial.P_at_kick = at(kPatKick);
+  m.atrial.period = m.period;
+  return m;
+}
+
+double static_radius_offset(const Shell& m, double P) {
+  auto f = [&](double y) {
+    const double s = 1.0 + y / m.R0;
+    double S = 0.0, dS = 0.0;
+    passive_stress(m, s * s, S, dS);
+    return m.d0 / m.R0 * s * S - P * s * s;
+  };
+  // f(0) = -P <= 0 and the passive stress grows with y: bracket the root in [0, hi].
+  double lo = 0.0, hi = 0.5 * m.R0;
+  while (f(hi) < 0.0 && hi < 10.0 * m.R0) hi *= 2.0;
+  for (int i = 0; i < 200 && hi - lo > 1e-15 * m.R0; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (f(mid) < 0.0 ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+double next_time(double t, double t_end, double dt, double period) {
+  const double b = std::floor(t / period + 1e-12);
+  const double local = t - b * period;
+  double next = b * period + (std::floor(local / dt + 1e-9) + 1.0) * dt;
+  const double beat_end = (b + 1.0) * period;
+  if (next > beat_end - 1e-6 * dt) next = beat_end;
+  if (next > t_end - 1e-6 * dt) next = t_end;
+  return next;
+}
+
+std::vector<Channel> state_head() {
+  return {
+      {"y", "m", "radial displacement of the mid-wall, R = R0 + y"},
+      {"dy_dt", "m/s", "radial velocity"},
+      {"P_v", "Pa", "ventricular pressure"},
+      {"P_ar", "Pa", "proximal arterial pressure"},
+      {"P_d", "Pa", "distal arterial pressure"},
+  };
+}
+
+Channel last_open_valve_entry() {
+  return {"last_open_valve", "1",
+          "0 mitral or 2 aortic: the valve open last; only labels the closed phases (1 or 3)"};
+}
+
+std::vector<Channel> circulation_channels() {
+  return {
+      {"V_lv", "m^3", "left-ventricular cavity volume 4/3 pi R^3"},
+      {"P_lv", "Pa", "left-ventricular pressure P_v"},
+      {"P_ar", "Pa", "proximal arterial (aortic) pressure"},
+      {"P_at", "Pa", "prescribed atrial pressure"},
+      {"q_ar", "m^3/s", "aortic-valve flow, > 0 into the artery"},
+      {"q_at", "m^3/s", "mitral-valve flow, > 0 into the ventricle"},
+      {"phase", "1", "0 filling, 1 isovolumic contraction, 2 ejection, 3 isovolumic relaxation"},
+      {"P_d", "Pa", "distal arterial pressure"},
+  };
+}
+
+double fill_relaxed_state(const Shell& m, Eigen::Ref<Eigen::VectorXd> x) {
+  const double P0 = m.atrial(0.0);
+  const double y = static_radius_offset(m, P0);
+  const double s1 = 1.0 + y / m.R0;
+  x(kY) = y;
+  x(kPv) = P0;
+  x(kPar) = std::max(P0, 75.0 * 133.322);
+  x(kPd) = std::max(P0, 70.0 * 133.322);
+  return 0.5 * (s1 * s1 - 1.0);
+}
+
+Status check_theta(const ParameterSpace& space, const SphereOptions& numerics,
+                   const Eigen::Ref<const Eigen::VectorXd>& theta, double APD, double period) {
+  if (theta.size() != space.size()) {
+    std::ostringstream s;
+    s << "theta has " << theta.size() << " entries, expected " << space.size();
+    return Status::Error(StatusCode::kInvalidArgument, s.str());
+  }
+  if (const std::string msg = space.check(theta); !msg.empty()) {
+    return Status::Error(StatusCode::kOutOfBounds, msg);
+  }
+  if (const std::string msg = numerics.validate(); !msg.empty()) {
+    return Status::Error(StatusCode::kInvalidArgument, "SphereOptions: " + msg);
+  }
+  if (APD >= period) {
+    return Status::Error(StatusCode::kOutOfBounds, "APD must be shorter than the period");
+  }
+  if (numerics.dt > period) {
+    return Status::Error(StatusCode::kInvalidArgument, "dt is longer than the heart period");
+  }
+  return Status::Ok();
+}
+
+Status check_advance(const State& state, Eigen::Index state_size, double t_end) {
+  if (state.x.size() != state_size) {
+    return Status::Error(StatusCode::kInvalidArgument, "state has the wrong size");
+  }
+  if (!state.x.allFinite()) return Status::Error(StatusCode::kNonFinite, "state is not finite");
+  if (!(t_end >= state.time)) {
+    return Status::Error(StatusCode::kInvalidArgument, "t_end lies before the state time");
+  }
+  return Status::Ok();
+}
+
+RunResult run_periodic(const Shell& m, const SphereOptions& o, std::vector<Channel> channels,
+                       State state,
+                       const std::function<Status(State&, double, int*, int*)>& step_to,
+                       const std::function<Eigen::VectorXd(const State&)>& sample) {
+  RunResult result;
+  result.trajectory.channels = std::move(channels);
+  const double T = m.period;
+  result.info.period = T;
+  const int steps_per_beat = static_cast<int>(std::ceil(T / o.dt - 1e-9));
+  const int max_rows = steps_per_beat / o.output_every + 2;
+  Eigen::VectorXd times(max_rows);
+  Eigen::MatrixXd values(max_rows, static_cast<Eigen::Index>(result.trajectory.channels.size()));
+
+  Eigen::VectorXd beat_start = state.x;
+  for (int beat = 0; beat < o.max_beats; ++beat) {
+    const double t0 = beat * T, t_end = (beat + 1) * T;
+    int rows = 0, step = 0;
+    times(rows) = 0.0;
+    values.row(rows++) = sample(state).transpose();
+    while (state.time < t_end) {
+      const double t1 = next_time(state.time, t_end, o.dt, T);
+      const Status st = step_to(state, t1, &result.info.newton_iterations, &result.info.step_cuts);
+      if (!st.ok()) {
+        result.status = st;
+        result.info.beats = beat + 1;
+        result.trajectory.times = times.head(rows);
+        result.trajectory.values = values.topRows(rows);
+        return result;
+      }
+      ++step;
+      if (step % o.output_every == 0 || state.time >= t_end) {
+        times(rows) = (state.time >= t_end) ? T : state.time - t0;
+        values.row(rows++) = sample(state).transpose();
+      }
+    }
+    state.time = t_end;
+    result.info.beats = beat + 1;
+
+    // Beat-to-beat change of volume and pressures at the beat start.
+    const Eigen::VectorXd& x = state.x;
+    const double V_new = cavity_volume(m, x(kY)), V_old = cavity_volume(m, beat_start(kY));
+    double change = std::abs(V_new - V_old) / V_old;
+    for (int k : {static_cast<int>(kPv), static_cast<int>(kPar), static_cast<int>(kPd)}) {
+      change = std::max(change, std::abs(x(k) - beat_start(k)) /
+                                    std::max(std::abs(beat_start(k)), 1e3));
+    }
+    result.info.periodicity_change = change;
+    beat_start = x;
+
+    const bool periodic = beat + 1 >= o.min_beats && change <= o.periodic_tolerance;
+    if (periodic || beat + 1 == o.max_beats) {
+      result.trajectory.times = times.head(rows);
+      result.trajectory.values = values.topRows(rows);
+      if (periodic) return result;
+    }
+  }
+  std::ostringstream s;
+  s << "not periodic after " << o.max_beats << " beats: beat-to-beat change "
+    << result.info.periodicity_change << " > " << o.periodic_tolerance;
+  result.status = Status::Error(StatusCode::kNotPeriodic, s.str());
+  return result;
+}
+
+}  // namespace sigmaheart::model::lumped::shell

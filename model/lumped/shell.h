@@ -1,0 +1,167 @@
+// What the lumped sphere (sphere.h) and the regional ventricle (regional.h) share: the thin
+// spherical shell's global parameters, passive law, cavity volume and initial equilibrium, the
+// beat-local time grid, the Newton scaling, step cutting, the periodic-run loop, and the channel
+// and state names common to both (MODELS.md s.2-3). One place, so that the one-patch regional
+// model keeps stepping exactly like the sphere.
+#pragma once
+
+#include "model/bcs/active_law.h"
+#include "model/circulation/circulation.h"
+#include "model/lumped/sphere.h"
+#include "model/simulator.h"
+
+#include <Eigen/Core>
+
+#include <cmath>
+#include <functional>
+#include <numbers>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace sigmaheart::model::lumped::shell {
+
+// Scales that make the Newton rows dimensionless (the tolerance is on these scaled rows).
+inline constexpr double kPref = 1e3;   // [Pa]
+inline constexpr double kVref = 1e-6;  // [m^3] (1 mL)
+inline constexpr int kMaxCuts = 8;     // step halvings before giving up (dt / 256)
+
+// The global (whole-shell) parameters, in this order; the sphere adds sigma0, the regional model
+// K_patch and per-patch parameters. Names as in LumpedSphere::default_parameters().
+enum Global : int {
+  kRho, kR0, kD0, kC1, kC2, kEta, kEs, kMu, kAlpha, kK0, kKATP, kKRS, kAPD, kPeriod,
+  kKat, kKar, kKp, kRp, kRd, kCp, kCd, kPsv, kPat0, kPatKick, kCcav, kN0Slope, kN0Emax,
+  kCexp, kBexp, kNumGlobal
+};
+const std::vector<std::string>& global_names();
+// Positions of global_names() in a parameter space (throws std::invalid_argument if one is missing).
+std::vector<int> global_indices(const ParameterSpace& space);
+
+// The shell's global parameters unpacked from theta. act.sigma0 is left at 0 (per model).
+struct Shell {
+  double rho, R0, d0, c1, c2, c_exp, b_exp, eta, period;
+  bcs::ActiveParameters act;
+  circulation::CirculationParameters circ;
+  circulation::AtrialPressure atrial;
+};
+Shell unpack(const Eigen::Ref<const Eigen::VectorXd>& theta, const std::vector<int>& global);
+
+// Passive stress Sigma = 2 dW/dC and dSigma/dC (MODELS.md s.2): Mooney-Rivlin
+// W = c1 (J1 - 3) + c2 (J2 - 3) plus the exponential stiffening named as the alternative in
+// MODELS.md s.2, W_exp = c_exp (exp(b_exp (J1 - 3)^2) - 1), J1 = 2C + C^-2. Alone, Mooney-Rivlin
+// gives an end-diastolic pressure-volume curve that flattens at large volumes (P ~ linear in R),
+// which makes the filling volume ill-determined; the exponential term gives the steep one.
+inline void passive_stress(const Shell& m, double C, double& S, double& dS_dC) {
+  const double iC = 1.0 / C, iC3 = iC * iC * iC;
+  const double g = 1.0 - iC3;  // dJ1/dC = 2 g
+  S = 4.0 * g * (m.c1 + C * m.c2);
+  dS_dC = 4.0 * (3.0 * iC3 * iC * (m.c1 + C * m.c2) + g * m.c2);
+  if (m.c_exp > 0.0) {
+    const double I = 2.0 * C + iC * iC - 3.0;
+    const double E = std::exp(m.b_exp * I * I);
+    const double k = 8.0 * m.b_exp * m.c_exp;
+    S += k * I * g * E;
+    dS_dC += k * E * (2.0 * g * g + 3.0 * I * iC3 * iC + 4.0 * m.b_exp * I * I * g * g);
+  }
+}
+
+inline double cavity_volume(const Shell& m, double y) {
+  const double R = m.R0 + y;
+  return 4.0 / 3.0 * std::numbers::pi * R * R * R;
+}
+
+// Static passive balance (d0/R0) s Sigma_pas(s^2) = P s^2 for y (bisection: robust, one call/run).
+double static_radius_offset(const Shell& m, double P);
+
+// The next point of the beat-local grid after t, capped at t_end: t = b T + j dt plus the beat
+// ends b T, so that run() and advance() step on the same points and every beat ends exactly at a
+// multiple of the period.
+double next_time(double t, double t_end, double dt, double period);
+
+// Common state entries 0..4: y, dy_dt, P_v, P_ar, P_d.
+enum StateEntry : int { kY, kV, kPv, kPar, kPd };
+std::vector<Channel> state_head();        // the five entries above, with units
+Channel last_open_valve_entry();          // the diagnostic flag that ends every state
+std::vector<Channel> circulation_channels();  // V_lv, P_lv, P_ar, P_at, q_ar, q_at, phase, P_d
+
+// Fills entries y, P_v, P_ar, P_d of a relaxed initial state (static passive equilibrium with the
+// atrial pressure at t = 0, arteries at a typical diastolic pressure; the periodic loop settles
+// within a few beats) and returns the fibre strain of that radius, for the contractile elements.
+double fill_relaxed_state(const Shell& m, Eigen::Ref<Eigen::VectorXd> x);
+
+// Validity checks of theta shared by both models (size, bounds, APD < period, dt <= period).
+Status check_theta(const ParameterSpace& space, const SphereOptions& numerics,
+                   const Eigen::Ref<const Eigen::VectorXd>& theta, double APD, double period);
+
+// Backward-Euler steps on the beat-local grid from state.time to t_end, each tried whole, then in
+// halves, quarters, ... (kMaxCuts). `step(xo, ta, tb, xn)` does one step on the unknowns (the state
+// without its last entry, last_open_valve) and returns Newton iterations or -1. On failure the
+// state is left at the last good point.
+template <class Vec, class StepFn>
+Status step_with_cuts(State& state, const Shell& m, double dt, double t_end, StepFn&& step,
+                      int* newton_iterations, int* step_cuts) {
+  const Eigen::Index nu = state.x.size() - 1;
+  Vec x = state.x.head(nu);
+  double last_open = state.x(nu);
+  double t = state.time;
+  while (t < t_end) {
+    const double t1 = next_time(t, t_end, dt, m.period);
+    Vec xn = x;
+    bool done = false;
+    for (int cut = 0; cut <= kMaxCuts && !done; ++cut) {
+      const int n = 1 << cut;
+      Vec xs = x;
+      bool ok = true;
+      for (int k = 0; k < n && ok; ++k) {
+        const double ta = t + (t1 - t) * k / n;
+        const double tb = (k + 1 == n) ? t1 : t + (t1 - t) * (k + 1) / n;
+        Vec xk = xs;
+        const int its = step(xs, ta, tb, xk);
+        if (its < 0) {
+          ok = false;
+        } else {
+          xs = xk;
+          if (newton_iterations) *newton_iterations += its;
+        }
+      }
+      if (ok) {
+        xn = xs;
+        done = true;
+        if (cut > 0 && step_cuts) *step_cuts += cut;
+      }
+    }
+    if (!done || !xn.allFinite()) {
+      state.x.head(nu) = x;
+      state.x(nu) = last_open;
+      state.time = t;
+      std::ostringstream s;
+      s << "Newton did not converge at t = " << t1 << " s after " << kMaxCuts
+        << " step halvings (V = " << cavity_volume(m, x(kY)) * 1e6 << " mL, P_v = " << x(kPv)
+        << " Pa)";
+      return Status::Error(xn.allFinite() ? StatusCode::kDiverged : StatusCode::kNonFinite,
+                           s.str());
+    }
+    const auto regime = circulation::valve_flow(xn(kPv), xn(kPar), m.atrial(t1), m.circ).regime;
+    if (regime != circulation::ValveRegime::kClosed) last_open = static_cast<double>(regime);
+    x = xn;
+    t = t1;
+  }
+  state.x.head(nu) = x;
+  state.x(nu) = last_open;
+  state.time = t_end;
+  return Status::Ok();
+}
+
+// The checks of advance() on the state and t_end (size, finiteness, order).
+Status check_advance(const State& state, Eigen::Index state_size, double t_end);
+
+// run() of both models: beats from `initial` until the beat-to-beat change of V, P_v, P_ar, P_d at
+// the beat start is below numerics.periodic_tolerance (after min_beats), returning the last beat
+// on t in [0, period]. step_to(state, t1, &newton_iterations, &step_cuts) advances; sample(state)
+// gives the channel row.
+RunResult run_periodic(const Shell& m, const SphereOptions& numerics, std::vector<Channel> channels,
+                       State initial,
+                       const std::function<Status(State&, double, int*, int*)>& step_to,
+                       const std::function<Eigen::VectorXd(const State&)>& sample);
+
+}  // namespace sigmaheart::model::lumped::shell

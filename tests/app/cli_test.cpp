@@ -1,0 +1,229 @@
+// The `sigmaheart` commands end to end: exit codes, messages, files written (app/cli.h,
+// app/commands/). In-process through run_cli with the "test-beat" stand-in simulator, plus a few
+// runs of the built binary.
+#include "app/cli.h"
+#include "app/errors.h"
+#include "app/io/hdf5_writer.h"
+#include "test_support.h"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <sstream>
+
+namespace sigmaheart::app {
+namespace {
+
+using sigmaheart::testing::read_file;
+using sigmaheart::testing::scratch_dir;
+using sigmaheart::testing::write_file;
+
+const char* kStandIn =
+    "name: standin\n"
+    "simulator:\n"
+    "  model: test-beat\n"
+    "  numerics: {samples: 41}\n"
+    "  parameters:\n"
+    "    V_ed: 150 mL\n";
+
+struct CliRun {
+  int code;
+  std::string out;
+  std::string err;
+};
+
+CliRun cli(const std::vector<std::string>& args) {
+  sigmaheart::testing::register_stand_in();
+  std::ostringstream out, err;
+  const int code = run_cli(args, out, err);
+  return {code, out.str(), err.str()};
+}
+
+TEST(Cli, SimulateWritesResultsCsvAndJsonAndExitsZero) {
+  const auto dir = scratch_dir();
+  const auto config = write_file(dir / "standin.yaml", kStandIn);
+  const auto h5 = dir / "r.h5";
+  const CliRun r = cli({"--log-level", "off", "simulate", config.string(), "-o", h5.string(), "--csv",
+                     (dir / "r.csv").string(), "--summary", (dir / "r.json").string(), "--set",
+                     "EF=0.5"});
+  ASSERT_EQ(r.code, kExitOk) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "r.h5.tmp"));
+
+  io::Hdf5Reader f(h5);
+  EXPECT_EQ(f.string_attribute("/", "kind"), "simulate");
+  EXPECT_EQ(f.string_attribute("/", "name"), "standin");
+  EXPECT_EQ(f.string_attribute("/", "config"), kStandIn);
+  EXPECT_EQ(f.read_text("/config"), kStandIn);
+  EXPECT_EQ(f.strings_attribute("/", "overrides"), (std::vector<std::string>{"--set EF=0.5"}));
+  EXPECT_TRUE(f.has_attribute("/", "git_describe"));
+  EXPECT_TRUE(f.has_attribute("/", "start_utc"));
+  EXPECT_EQ(f.read_strings("/parameters/names"),
+            (std::vector<std::string>{"V_ed", "EF", "P_peak", "fail"}));
+  EXPECT_EQ(f.read_strings("/parameters/source"),
+            (std::vector<std::string>{"config", "--set", "default", "default"}));
+  const Eigen::VectorXd v = f.read_vector("/trajectories/simulated/V_lv");
+  ASSERT_EQ(v.size(), 41);
+  EXPECT_NEAR(v(0), 150.0, 1e-9);  // end-diastole at t = 0, in mL
+  EXPECT_EQ(f.string_attribute("/trajectories/simulated/V_lv", "units"), "mL");
+  EXPECT_NEAR(f.double_attribute("/summary", "EDV"), 150.0, 1e-6);
+  EXPECT_EQ(f.string_attribute("/summary", "EDV.units"), "mL");
+  EXPECT_NEAR(f.double_attribute("/summary", "EF"), 50.0, 1e-6);
+  EXPECT_EQ(f.string_attribute("/summary", "EF.units"), "%");
+
+  const auto j = nlohmann::json::parse(read_file(dir / "r.json"));
+  EXPECT_NEAR(j["ESV"]["value"].get<double>(), 75.0, 1e-6);
+  EXPECT_EQ(j["ESV"]["unit"], "mL");
+  EXPECT_NEAR(j["P_max"]["value"].get<double>(), 16000.0 / 133.322, 1e-6);
+  EXPECT_EQ(j["P_max"]["unit"], "mmHg");
+  EXPECT_EQ(j["period"]["value"], 0.8);
+  EXPECT_EQ(j["beats"]["value"], 3);
+  EXPECT_EQ(read_file(dir / "r.csv").substr(0, 41), "time [s],V_lv [mL],P_lv [mmHg],phase [1]\n");
+
+  EXPECT_NE(r.out.find("EDV"), std::string::npos);
+  EXPECT_NE(r.out.find(" 150 mL"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("wrote " + h5.string()), std::string::npos);
+}
+
+TEST(Cli, SimulateWithoutOutputWritesResultsNamedAfterTheConfig) {
+  const auto dir = scratch_dir();
+  const auto config = write_file(dir / "standin.yaml", kStandIn);
+  const auto cwd = std::filesystem::current_path();
+  std::filesystem::current_path(dir);
+  const CliRun r = cli({"--log-level", "off", "simulate", "standin.yaml"});
+  std::filesystem::current_path(cwd);
+  ASSERT_EQ(r.code, kExitOk) << r.err;
+  EXPECT_TRUE(std::filesystem::exists(dir / "results" / "standin-simulate.h5"));
+}
+
+TEST(Cli, BadConfigExitsTwoWithLocatedMessageAndLeavesTheOldResultUntouched) {
+  const auto dir = scratch_dir();
+  const auto config = write_file(dir / "bad.yaml",
+                                 "name: standin\n"
+                                 "simulator:\n"
+                                 "  model: test-beat\n"
+                                 "  parameters:\n"
+                                 "    V_edd: 150 mL\n");
+  const auto h5 = write_file(dir / "r.h5", "previous result");
+  const CliRun r = cli({"simulate", config.string(), "-o", h5.string()});
+  EXPECT_EQ(r.code, kExitBadInput);
+  EXPECT_EQ(r.err, "error: " + config.string() +
+                       ":5:5: unknown parameter 'V_edd' for model test-beat (did you mean 'V_ed'?)\n");
+  EXPECT_EQ(read_file(h5), "previous result");
+  EXPECT_FALSE(std::filesystem::exists(dir / "r.h5.tmp"));
+}
+
+TEST(Cli, OutOfBoundsSetExitsTwo) {
+  const auto dir = scratch_dir();
+  const auto config = write_file(dir / "standin.yaml", kStandIn);
+  const CliRun r = cli({"validate", config.string(), "--set", "EF=2"});
+  EXPECT_EQ(r.code, kExitBadInput);
+  EXPECT_EQ(r.err, "error: --set EF=2: parameter 'EF' = 2 1 is outside its bounds [0.05, 0.9] 1\n");
+}
+
+TEST(Cli, FailedSimulationExitsOneAndWritesNothing) {
+  const auto dir = scratch_dir();
+  const auto config = write_file(dir / "standin.yaml", kStandIn);
+  const auto h5 = write_file(dir / "r.h5", "previous result");
+  const CliRun r = cli({"--log-level", "off", "simulate", config.string(), "-o", h5.string(), "--set",
+                     "fail=1"});
+  EXPECT_EQ(r.code, kExitRuntimeFailure);
+  EXPECT_EQ(r.err, "error: simulation of 'standin' failed (diverged): Newton diverged at t = 0.3 s\n");
+  EXPECT_EQ(read_file(h5), "previous result");
+}
+
+TEST(Cli, ValidateReportsOkAndParamsListsUnitsBoundsAndSources) {
+  const auto dir = scratch_dir();
+  const auto config = write_file(dir / "standin.yaml", kStandIn);
+  const CliRun v = cli({"validate", config.string()});
+  EXPECT_EQ(v.code, kExitOk) << v.err;
+  EXPECT_EQ(v.out, config.string() +
+                       ": ok ('standin', model test-beat, 4 parameters, 1 set by the config; "
+                       "sections checked: simulator)\n");
+  const CliRun p = cli({"params", config.string()});
+  EXPECT_EQ(p.code, kExitOk) << p.err;
+  EXPECT_EQ(p.out,
+            "standin: model test-beat, 4 parameters\n"
+            "name    unit  nominal  lower   upper  from     doc\n"
+            "V_ed    m^3   0.00015  1e-05  0.0005  config   end-diastolic volume\n"
+            "EF      1         0.6   0.05     0.9  default  ejection fraction\n"
+            "P_peak  Pa    1.6e+04   1000   4e+04  default  peak LV pressure\n"
+            "fail    1           0      0       1  default  > 0.5 makes the run fail\n");
+}
+
+TEST(Cli, UnknownOptionOrMissingConfigExitsTwo) {
+  EXPECT_EQ(cli({"simulate"}).code, kExitBadInput);
+  EXPECT_EQ(cli({"simulate", "x.yaml", "--frobnicate"}).code, kExitBadInput);
+  const CliRun r = cli({"validate", "/nonexistent/x.yaml"});
+  EXPECT_EQ(r.code, kExitBadInput);
+  EXPECT_EQ(r.err, "error: /nonexistent/x.yaml: no such config file\n");
+}
+
+// The built binary --------------------------------------------------------------------------
+
+int run_binary(const std::string& args, const std::filesystem::path& output) {
+  const std::string cmd = std::string(SIGMAHEART_BINARY_DIR) + "/sigmaheart " + args + " > '" +
+                          output.string() + "' 2>&1";
+  const int status = std::system(cmd.c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+TEST(Binary, VersionPrintsVersionAndGitDescription) {
+  const auto dir = scratch_dir();
+  EXPECT_EQ(run_binary("--version", dir / "out.txt"), 0);
+  EXPECT_EQ(read_file(dir / "out.txt").rfind("sigmaheart 0.1.0 (", 0), 0u) << read_file(dir / "out.txt");
+}
+
+TEST(Binary, HelpDocumentsTheExitCodes) {
+  const auto dir = scratch_dir();
+  EXPECT_EQ(run_binary("--help", dir / "out.txt"), 0);
+  EXPECT_NE(read_file(dir / "out.txt").find("2  bad input"), std::string::npos);
+}
+
+TEST(Binary, BadConfigExitsTwoWithFileLineColumn) {
+  const auto dir = scratch_dir();
+  const auto config = write_file(dir / "x.yaml",
+                                 "simulator:\n"
+                                 "  model: lumped-sphere\n"
+                                 "  parameters:\n"
+                                 "    sigma_0: 1.5e5\n");
+  EXPECT_EQ(run_binary("validate '" + config.string() + "'", dir / "out.txt"), 2);
+  EXPECT_EQ(read_file(dir / "out.txt"),
+            "error: " + config.string() +
+                ":4:5: unknown parameter 'sigma_0' for model lumped-sphere (did you mean 'sigma0'?)\n");
+}
+
+// scripts/plot ------------------------------------------------------------------------------
+
+TEST(Plot, SimulateResultGivesPvLoopAndCurvePngsNamedAfterTheResult) {
+  if (std::system("/usr/bin/python3 -c 'import matplotlib, h5py' > /dev/null 2>&1") != 0) {
+    GTEST_SKIP() << "Debian's python3 with matplotlib and h5py is not installed";
+  }
+  const auto dir = scratch_dir();
+  const auto config = write_file(dir / "standin.yaml", kStandIn);
+  ASSERT_EQ(cli({"--log-level", "off", "simulate", config.string(), "-o", (dir / "r.h5").string()}).code,
+            kExitOk);
+  const std::string cmd = std::string(SIGMAHEART_SOURCE_DIR) + "/scripts/plot '" +
+                          (dir / "r.h5").string() + "' -o '" + (dir / "png").string() + "' > '" +
+                          (dir / "out.txt").string() + "' 2>&1";
+  const int status = std::system(cmd.c_str());
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << read_file(dir / "out.txt");
+  EXPECT_EQ(read_file(dir / "out.txt"), (dir / "png" / "r-pv-loop.png").string() + "\n" +
+                                            (dir / "png" / "r-curves.png").string() + "\n");
+  EXPECT_GT(std::filesystem::file_size(dir / "png" / "r-pv-loop.png"), 10000u);
+}
+
+TEST(Plot, FileThatIsNotAResultExitsTwo) {
+  const auto dir = scratch_dir();
+  write_file(dir / "x.h5", "not hdf5");
+  const std::string cmd = std::string(SIGMAHEART_SOURCE_DIR) + "/scripts/plot '" +
+                          (dir / "x.h5").string() + "' > /dev/null 2>&1";
+  const int status = std::system(cmd.c_str());
+  if (WIFEXITED(status) && WEXITSTATUS(status) == 1) GTEST_SKIP() << "no matplotlib";
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 2);
+}
+
+}  // namespace
+}  // namespace sigmaheart::app

@@ -1,0 +1,165 @@
+// The common config sections and `--set` overrides (app/config.h), on the real lumped sphere.
+#include "app/config.h"
+
+#include "model/lumped/sphere.h"
+#include "model/units.h"
+
+#include <gtest/gtest.h>
+
+#include <string>
+
+namespace sigmaheart::app {
+namespace {
+
+template <class F>
+std::string error_of(F&& f) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+const char* kHealthy =
+    "name: healthy\n"                                // 1
+    "description: \"test preset\"\n"                 // 2
+    "simulator:\n"                                   // 3
+    "  model: lumped-sphere\n"                       // 4
+    "  numerics: {dt: 1.0e-3, max_beats: 30}\n"      // 5
+    "  parameters:\n"                                // 6
+    "    sigma0: 6.0e4\n"                            // 7
+    "    P_at0: \"8 mmHg\"\n";                       // 8
+
+std::string with_line(const std::string& text, int line, const std::string& replacement) {
+  std::string out;
+  size_t start = 0;
+  for (int l = 1; start <= text.size(); ++l) {
+    const size_t end = text.find('\n', start);
+    const std::string current = text.substr(start, end == std::string::npos ? end : end - start);
+    out += (l == line ? replacement : current);
+    if (end == std::string::npos) break;
+    out += "\n";
+    start = end + 1;
+  }
+  return out;
+}
+
+TEST(Config, ParsesNameModelParametersWithUnitsAndTheirSources) {
+  const Config c = parse_config(kHealthy, "x.yaml");
+  EXPECT_EQ(c.name, "healthy");
+  EXPECT_EQ(c.description, "test preset");
+  EXPECT_EQ(c.simulator.model, "lumped-sphere");
+  const auto& p = c.simulator.parameters;
+  EXPECT_DOUBLE_EQ(p[p.index_or_throw("sigma0")].nominal, 6.0e4);
+  EXPECT_DOUBLE_EQ(p[p.index_or_throw("P_at0")].nominal, 8 * model::units::kMmHg);
+  EXPECT_EQ(c.simulator.sources[static_cast<size_t>(p.index_or_throw("sigma0"))], ValueSource::kConfig);
+  EXPECT_EQ(c.simulator.sources[static_cast<size_t>(p.index_or_throw("R0"))], ValueSource::kDefault);
+  auto sim = c.simulator.make();
+  auto* sphere = dynamic_cast<model::lumped::LumpedSphere*>(sim.get());
+  ASSERT_NE(sphere, nullptr);
+  EXPECT_EQ(sphere->options().max_beats, 30);
+  EXPECT_DOUBLE_EQ(sim->parameters().nominal()(p.index_or_throw("sigma0")), 6.0e4);
+}
+
+TEST(Config, NameDefaultsToTheFileStem) {
+  const Config c = parse_config(with_line(kHealthy, 1, "# no name"), "configs/failing.yaml");
+  EXPECT_EQ(c.name, "failing");
+}
+
+TEST(Config, UnknownParameterNamesFileLineColumnAndTheClosestName) {
+  EXPECT_EQ(error_of([] { parse_config(with_line(kHealthy, 7, "    sigma_0: 1.5e5"), "configs/x.yaml"); }),
+            "configs/x.yaml:7:5: unknown parameter 'sigma_0' for model lumped-sphere (did you mean 'sigma0'?)");
+}
+
+TEST(Config, UnknownSectionAndNumericsKeysSuggestTheClosestKey) {
+  EXPECT_EQ(error_of([] { parse_config(with_line(kHealthy, 3, "simulater:"), "x.yaml"); }),
+            "x.yaml:3:1: unknown section 'simulater' at the top level (did you mean 'simulator'?)");
+  EXPECT_EQ(error_of([] {
+              parse_config(with_line(kHealthy, 5, "  numerics: {dtt: 1.0e-3}"), "x.yaml");
+            }),
+            "x.yaml:5:14: unknown key 'dtt' in simulator.numerics (did you mean 'dt'?)");
+}
+
+TEST(Config, WrongTypeSaysWhatWasExpected) {
+  EXPECT_EQ(error_of([] {
+              parse_config(with_line(kHealthy, 5, "  numerics: {max_beats: abc}"), "x.yaml");
+            }),
+            "x.yaml:5:25: simulator.numerics.max_beats: expected an integer, got 'abc'");
+  EXPECT_EQ(error_of([] { parse_config(with_line(kHealthy, 7, "    sigma0: abc"), "x.yaml"); }),
+            "x.yaml:7:13: simulator.parameters.sigma0: expected a number in Pa or '<number> <unit>', "
+            "got 'abc'");
+}
+
+TEST(Config, OutOfBoundsValueNamesParameterValueUnitAndBounds) {
+  EXPECT_EQ(error_of([] { parse_config(with_line(kHealthy, 7, "    sigma0: 3e9"), "x.yaml"); }),
+            "x.yaml:7:13: parameter 'sigma0' = 3e+09 Pa is outside its bounds [0, 1e+07] Pa");
+}
+
+TEST(Config, InvalidNumericsPointAtTheField) {
+  EXPECT_EQ(error_of([] {
+              parse_config(with_line(kHealthy, 5, "  numerics: {dt: 0.5}"), "x.yaml");
+            }),
+            "x.yaml:5:18: simulator.numerics: dt = 0.5 s must lie in (0, 0.05]");
+}
+
+TEST(Config, UnknownModelAndMissingSectionsAreReported) {
+  EXPECT_EQ(error_of([] { parse_config(with_line(kHealthy, 4, "  model: lumped-spere"), "x.yaml"); })
+                .rfind("x.yaml:4:10: simulator.model: unknown value 'lumped-spere' (did you mean "
+                       "'lumped-sphere'?); expected one of: ",
+                       0),
+            0u);
+  EXPECT_EQ(error_of([] { parse_config("name: x\n", "x.yaml"); }),
+            "x.yaml:1:1: missing required key 'simulator'");
+  EXPECT_EQ(error_of([] { parse_config("simulator:\n  numerics: {}\n", "x.yaml"); }),
+            "x.yaml:2:3: missing required key 'model' in simulator");
+}
+
+TEST(Config, SetOverridesParametersNumericsAndFullPaths) {
+  const Config c = parse_config(kHealthy, "x.yaml",
+                                {"sigma0=1.5e5", "numerics.dt=0.5 ms", "parameters.R0=2.5 cm",
+                                 "simulator.numerics.max_beats=12", "simulator.model=lumped-sphere"});
+  const auto& p = c.simulator.parameters;
+  EXPECT_DOUBLE_EQ(p[p.index_or_throw("sigma0")].nominal, 1.5e5);
+  EXPECT_DOUBLE_EQ(p[p.index_or_throw("R0")].nominal, 0.025);
+  EXPECT_EQ(c.simulator.sources[static_cast<size_t>(p.index_or_throw("sigma0"))], ValueSource::kOverride);
+  EXPECT_EQ(c.simulator.sources[static_cast<size_t>(p.index_or_throw("P_at0"))], ValueSource::kConfig);
+  auto sim = c.simulator.make();
+  const auto& o = dynamic_cast<model::lumped::LumpedSphere&>(*sim).options();
+  EXPECT_DOUBLE_EQ(o.dt, 5e-4);
+  EXPECT_EQ(o.max_beats, 12);
+  EXPECT_EQ(c.file.overrides().front(), "--set sigma0=1.5e5");
+  EXPECT_EQ(c.file.overrides()[1], "--set 'numerics.dt=0.5 ms'");
+}
+
+TEST(Config, SetErrorsNameTheOverride) {
+  EXPECT_EQ(error_of([] { parse_config(kHealthy, "x.yaml", {"sigma_0=1.5e5"}); }),
+            "--set sigma_0=1.5e5: unknown parameter 'sigma_0' for model lumped-sphere (did you mean "
+            "'sigma0'?)");
+  EXPECT_EQ(error_of([] { parse_config(kHealthy, "x.yaml", {"sigma0=-1"}); }),
+            "--set sigma0=-1: parameter 'sigma0' = -1 Pa is outside its bounds [0, 1e+07] Pa");
+  EXPECT_EQ(error_of([] { parse_config(kHealthy, "x.yaml", {"numerics.dt=abc"}); }),
+            "--set numerics.dt=abc: simulator.numerics.dt: expected a number in s or '<number> "
+            "<unit>', got 'abc'");
+  EXPECT_EQ(error_of([] { parse_config(kHealthy, "x.yaml", {"sigma0"}); }),
+            "--set sigma0: expected key=value, e.g. --set sigma0=1.5e5");
+}
+
+TEST(Config, ExpandsOverrideKeys) {
+  EXPECT_EQ(expand_override_key("sigma0"), "simulator.parameters.sigma0");
+  EXPECT_EQ(expand_override_key("numerics.dt"), "simulator.numerics.dt");
+  EXPECT_EQ(expand_override_key("parameters.R0"), "simulator.parameters.R0");
+  EXPECT_EQ(expand_override_key("calibration.max_iterations"), "calibration.max_iterations");
+}
+
+TEST(Config, RegisteredSectionsAreAcceptedAtTheTopLevel) {
+  const std::string text = std::string(kHealthy) + "twin_study: {members: 3}\n";
+  EXPECT_EQ(error_of([&] { parse_config(text, "x.yaml"); }),
+            "x.yaml:9:1: unknown section 'twin_study' at the top level; expected one of: name, "
+            "description, seed, simulator");
+  register_config_section({"twin_study", [](const Config&) {}});
+  EXPECT_NO_THROW(parse_config(text, "x.yaml"));
+}
+
+}  // namespace
+}  // namespace sigmaheart::app

@@ -1,0 +1,91 @@
+// `sigmaheart personalize` end to end, shortened: one pass of the ROUKF over the bundled
+// LAD-infarct twin (17 contractilities, LBBB, 30 frames) already marks the infarcted segments low;
+// the results file holds every step with units; bad input exits 2 at file:line:column, a filter
+// that aborts exits 1 with the steps done written.
+#include "app/io/hdf5_writer.h"
+#include "personalize_helpers.h"
+
+namespace sigmaheart::app::personalize_testing {
+namespace {
+
+using sigmaheart::testing::read_file;
+using sigmaheart::testing::scratch_dir;
+using sigmaheart::testing::write_file;
+
+TEST(PersonalizeCommand, OnePassMarksTheInfarctedSegmentsLow) {
+  const auto dir = scratch_dir();
+  const std::string h5 = (dir / "one.h5").string(), json = (dir / "one.json").string();
+  const CliRun r = cli({"personalize", twin_config(), "-o", h5, "--summary", json, "--threads", "2",
+                        "--set", "personalize.filter.beats=1"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(read_file(json));
+  EXPECT_EQ(j["termination"], "completed");
+  EXPECT_EQ(j["members"], 18);
+  EXPECT_EQ(j["steps"], 30);
+  expect_infarct_marked_low(j);
+  for (int s = 1; s <= 17; ++s) {
+    const auto& e = j["parameters"][seg(s)];
+    EXPECT_EQ(e["segment"], s);
+    EXPECT_LT(e["std"].get<double>(), e["prior_std"].get<double>()) << "segment " << s;
+    EXPECT_NEAR(e["truth"].get<double>(), kInfarct.count(s) ? 21200.0 : 53000.0, 1e-6);
+  }
+
+  io::Hdf5Reader f(h5);
+  EXPECT_EQ(f.string_attribute("/", "kind"), "personalize");
+  const Eigen::MatrixXd theta = f.read_matrix("/steps/theta");
+  EXPECT_EQ(theta.rows(), 30);
+  EXPECT_EQ(theta.cols(), 17);
+  EXPECT_EQ(f.read_matrix("/steps/fitted").cols(), 17);
+  EXPECT_EQ(f.read_vector("/steps/nis").size(), 30);
+  EXPECT_EQ(f.string_attribute("/steps/innovation", "units"), "see /observations/units");
+  EXPECT_EQ(f.read_strings("/observations/units")[6], "mL");
+  EXPECT_EQ(f.string_attribute("/steps/theta", "units"), "per parameter, see /estimate/units");
+  EXPECT_EQ(f.read_vector("/truth/values").size(), 17);
+  // The +-2 sigma band contains the estimate at every step.
+  const Eigen::MatrixXd lo = f.read_matrix("/steps/theta_lower"), hi = f.read_matrix("/steps/theta_upper");
+  EXPECT_TRUE(((lo.array() <= theta.array()) && (theta.array() <= hi.array())).all());
+}
+
+std::string config_with(const std::string& estimate, const std::string& filter = "beats: 1") {
+  return "name: t\nsimulator:\n  model: lumped-regional\n  numerics: {activation: lbbb}\n"
+         "personalize:\n  observations:\n    file: " + twin_data() +
+         "\n    noise: 0.05 mL\n    start_beats: 8\n  estimate:\n    " + estimate +
+         "\n  filter: {" + filter + "}\n";
+}
+
+TEST(PersonalizeCommand, ASegmentOutsideTheSeventeenIsReportedAtItsLineAndColumn) {
+  const auto dir = scratch_dir();
+  const auto cfg = write_file(dir / "bad.yaml", config_with("sigma0: {segments: [1, 18], spread: 50 %}"));
+  const CliRun r = cli({"personalize", cfg.string(), "-o", (dir / "x.h5").string()});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("bad.yaml:11:28"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("segment 18 outside 1..17"), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "x.h5"));
+}
+
+TEST(PersonalizeCommand, AnUnknownFamilyGetsADidYouMean) {
+  const auto dir = scratch_dir();
+  const auto cfg = write_file(dir / "bad.yaml", config_with("sigma: {spread: 50 %}"));
+  const CliRun r = cli({"personalize", cfg.string()});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("bad.yaml:11:5"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("did you mean"), std::string::npos) << r.err;
+}
+
+TEST(PersonalizeCommand, AnAbortedFilterExitsOneAndKeepsTheStepsDone) {
+  const auto dir = scratch_dir();
+  // One Newton iteration per step cannot converge: every member fails in the first prediction.
+  std::string text = config_with("sigma0: {segments: all, spread: 50 %}", "beats: 1, failure_policy: abort");
+  text.replace(text.find("{activation: lbbb}"), 18, "{activation: lbbb, newton_max_iterations: 1}");
+  const auto cfg = write_file(dir / "abort.yaml", text);
+  const std::string h5 = (dir / "abort.h5").string();
+  const CliRun r = cli({"personalize", cfg.string(), "-o", h5, "--threads", "1"});
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("member 0 failed"), std::string::npos) << r.err;
+  io::Hdf5Reader f(h5);
+  EXPECT_EQ(f.string_attribute("/summary", "termination"), "member failed");
+  EXPECT_EQ(f.read_vector("/steps/time").size(), 1);
+}
+
+}  // namespace
+}  // namespace sigmaheart::app::personalize_testing

@@ -1,0 +1,246 @@
+// `sigmaheart sensitivity` end to end (app/commands/sensitivity.cpp): exact indices of the Ishigami
+// function through the command, clinical units in the results, located config errors (exit 2),
+// and the documented report of a Sobol' design with failed runs (exit 1, results file listing them).
+#include "app/cli.h"
+#include "app/errors.h"
+#include "app/io/hdf5_writer.h"
+#include "../test_support.h"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <fstream>
+#include <regex>
+#include <sstream>
+
+namespace sigmaheart::app {
+namespace {
+
+using sigmaheart::testing::read_file;
+using sigmaheart::testing::scratch_dir;
+using sigmaheart::testing::write_file;
+
+struct CliRun {
+  int code;
+  std::string out;
+  std::string err;
+};
+
+CliRun cli(const std::vector<std::string>& args) {
+  sigmaheart::testing::register_stand_in();
+  std::ostringstream out, err;
+  const int code = run_cli(args, out, err);
+  return {code, out.str(), err.str()};
+}
+
+nlohmann::json read_json(const std::filesystem::path& p) { return nlohmann::json::parse(read_file(p)); }
+
+const char* kIshigami =
+    "name: ishigami\n"
+    "simulator: {model: test-beat}\n"
+    "sensitivity:\n"
+    "  method: sobol\n"
+    "  model: ishigami\n"
+    "  seed: 11\n"
+    "  sobol: {N: 2048, bootstrap: 300, convergence_levels: 3}\n"
+    "  ensemble: {threads: 2}\n";
+
+TEST(SensitivityCommand, IshigamiSobolReproducesExactIndicesWithinIntervals) {
+  const auto dir = scratch_dir();
+  const auto config = write_file(dir / "ishigami.yaml", kIshigami);
+  const CliRun r = cli({"--log-level", "off", "sensitivity", config.string(), "-o", (dir / "r.h5").string(),
+                        "--summary", (dir / "r.json").string()});
+  ASSERT_EQ(r.code, kExitOk) << r.err << r.out;
+  // Exact values (Ishigami & Homma 1990, a = 7, b = 0.1).
+  const double S1[] = {0.3139, 0.4424, 0.0};
+  const double ST[] = {0.5576, 0.4424, 0.2437};
+  io::Hdf5Reader f(dir / "r.h5");
+  EXPECT_EQ(f.string_attribute("/", "kind"), "sensitivity");
+  EXPECT_EQ(f.string_attribute("/analysis", "method"), "sobol");
+  EXPECT_NE(f.string_attribute("/analysis/sobol", "estimators").find("Jansen"), std::string::npos);
+  const Eigen::MatrixXd s1 = f.read_matrix("/analysis/sobol/S1"), st = f.read_matrix("/analysis/sobol/ST");
+  const Eigen::MatrixXd s1l = f.read_matrix("/analysis/sobol/S1_low"), s1h = f.read_matrix("/analysis/sobol/S1_high");
+  const Eigen::MatrixXd stl = f.read_matrix("/analysis/sobol/ST_low"), sth = f.read_matrix("/analysis/sobol/ST_high");
+  ASSERT_EQ(s1.rows(), 3);
+  ASSERT_EQ(s1.cols(), 1);
+  for (int i = 0; i < 3; ++i) {
+    // Within 0.005 of the 95 % bootstrap interval (the interval itself is a random quantity) and
+    // within 0.05 of the exact value.
+    EXPECT_GE(S1[i], s1l(i, 0) - 0.005) << "S1 x" << i + 1;
+    EXPECT_LE(S1[i], s1h(i, 0) + 0.005) << "S1 x" << i + 1;
+    EXPECT_GE(ST[i], stl(i, 0) - 0.005) << "ST x" << i + 1;
+    EXPECT_LE(ST[i], sth(i, 0) + 0.005) << "ST x" << i + 1;
+    EXPECT_NEAR(s1(i, 0), S1[i], 0.05);
+    EXPECT_NEAR(st(i, 0), ST[i], 0.05);
+    EXPECT_LT(s1h(i, 0) - s1l(i, 0), 0.2);  // the intervals are informative
+  }
+  const Eigen::VectorXd exact = f.read_vector("/analysis/exact/ST");
+  EXPECT_NEAR(exact(2), 0.2437, 1e-4);
+  // Convergence tables at N, N/2, N/4.
+  EXPECT_TRUE(f.exists("/analysis/sobol/convergence/n512/ST"));
+  EXPECT_TRUE(f.exists("/analysis/sobol/convergence/n2048/S1"));
+  EXPECT_EQ(f.read_matrix("/analysis/design/z").rows(), 2048 * 5);
+  EXPECT_EQ(f.read_strings("/analysis/design/block")[2 * 2048], "AB_1 (x1)");
+
+  const auto j = read_json(dir / "r.json");
+  EXPECT_EQ(j["kind"], "sensitivity");
+  EXPECT_EQ(j["method"], "sobol");
+  EXPECT_TRUE(j["valid"].get<bool>());
+  EXPECT_EQ(j["runs"], 2048 * 5);
+  EXPECT_EQ(j["indices"]["y"]["ranking"][0], "x1");  // ST: 0.56 > 0.44 > 0.24
+  EXPECT_NEAR(j["indices"]["y"]["parameters"]["x2"]["S1"].get<double>(), 0.4424, 0.05);
+  EXPECT_NEAR(j["exact"]["S1"][1].get<double>(), 0.4424, 1e-4);
+  EXPECT_NE(r.out.find("exact indices"), std::string::npos);
+}
+
+const char* kStandInOat =
+    "name: oat\n"
+    "simulator:\n"
+    "  model: test-beat\n"
+    "  numerics: {samples: 81}\n"
+    "  parameters: {V_ed: 150 mL, EF: 0.6}\n"
+    "sensitivity:\n"
+    "  method: oat\n"
+    "  outputs: [EDV, EF, P_max]\n"
+    "  parameters:\n"
+    "    V_ed: {relative: 0.1}\n"
+    "    EF: {relative: 0.1}\n"
+    "  oat: {mode: range}\n";
+
+TEST(SensitivityCommand, OatReportsClinicalUnits) {
+  const auto dir = scratch_dir();
+  const auto config = write_file(dir / "oat.yaml", kStandInOat);
+  const CliRun r = cli({"--log-level", "off", "sensitivity", config.string(), "-o", (dir / "r.h5").string(),
+                        "--summary", (dir / "r.json").string(), "--threads", "1"});
+  ASSERT_EQ(r.code, kExitOk) << r.err;
+  io::Hdf5Reader f(dir / "r.h5");
+  EXPECT_EQ(f.read_strings("/analysis/outputs/units"), (std::vector<std::string>{"mL", "%", "mmHg"}));
+  const Eigen::VectorXd z = f.read_vector("/analysis/oat/z_nominal");
+  EXPECT_NEAR(z(0), 150.0, 1e-6);  // EDV = V_ed
+  EXPECT_NEAR(z(1), 60.0, 1e-6);   // EF in %
+  EXPECT_NEAR(z(2), 16000.0 / 133.322387415, 1e-3);
+  // V_ed +-10 % moves EDV by -+15 mL and leaves EF alone; EF +-10 % moves EF by -+6 points.
+  const Eigen::MatrixXd dl = f.read_matrix("/analysis/oat/delta_low"), dh = f.read_matrix("/analysis/oat/delta_high");
+  EXPECT_NEAR(dl(0, 0), -15.0, 1e-6);
+  EXPECT_NEAR(dh(0, 0), 15.0, 1e-6);
+  EXPECT_NEAR(dh(0, 1), 0.0, 1e-9);
+  EXPECT_NEAR(dl(1, 1), -6.0, 1e-6);
+  EXPECT_NEAR(f.read_matrix("/analysis/oat/normalised")(0, 0), 1.0, 1e-9);  // EDV proportional to V_ed
+  const auto j = read_json(dir / "r.json");
+  EXPECT_EQ(j["indices"]["EDV"]["unit"], "mL");
+  EXPECT_EQ(j["indices"]["EDV"]["ranking"][0], "V_ed");
+  EXPECT_NEAR(j["indices"]["EF"]["parameters"]["EF"]["swing"].get<double>(), 12.0, 1e-6);
+  EXPECT_NE(r.out.find("EDV (nominal 150 mL)"), std::string::npos) << r.out;
+}
+
+// A study whose `fail` parameter exceeds 0.5 in 1/6 of the design: the stand-in reports kDiverged.
+std::string failing_sobol(const std::string& policy) {
+  return "name: failing\n"
+         "simulator: {model: test-beat, numerics: {samples: 41}}\n"
+         "sensitivity:\n"
+         "  method: sobol\n"
+         "  outputs: [EDV, EF]\n"
+         "  parameters:\n"
+         "    V_ed: {relative: 0.2}\n"
+         "    fail: {lower: 0.0, upper: 0.6}\n"
+         "  sobol: {N: 64, bootstrap: 50, convergence_levels: 2, failure_policy: " + policy + "}\n";
+}
+
+TEST(SensitivityCommand, SobolDesignWithFailedRunsWritesTheReportAndExitsOne) {
+  const auto dir = scratch_dir();
+  const auto config = write_file(dir / "failing.yaml", failing_sobol("stop"));
+  const CliRun r = cli({"--log-level", "off", "sensitivity", config.string(), "-o", (dir / "r.h5").string(),
+                        "--summary", (dir / "r.json").string()});
+  ASSERT_EQ(r.code, kExitRuntimeFailure) << r.err << r.out;
+  EXPECT_NE(r.err.find("/analysis/failed"), std::string::npos) << r.err;
+  EXPECT_NE(r.out.find("failed run"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("diverged"), std::string::npos) << r.out;
+
+  io::Hdf5Reader f(dir / "r.h5");
+  EXPECT_EQ(f.double_attribute("/analysis/sobol", "valid"), 0.0);
+  EXPECT_FALSE(f.exists("/analysis/sobol/S1"));  // no silent numbers
+  const Eigen::MatrixXd theta = f.read_matrix("/analysis/design/theta");
+  const Eigen::MatrixXd z = f.read_matrix("/analysis/design/z");
+  int expected = 0;
+  for (Eigen::Index i = 0; i < theta.rows(); ++i) {
+    const bool fails = theta(i, 1) > 0.5;
+    expected += fails;
+    EXPECT_EQ(std::isnan(z(i, 0)), fails) << "run " << i;
+  }
+  EXPECT_GT(expected, 0);
+  const int count = static_cast<int>(f.double_attribute("/analysis/failed", "count"));
+  EXPECT_EQ(count, expected);
+  const Eigen::MatrixXd failed_theta = f.read_matrix("/analysis/failed/theta");
+  ASSERT_EQ(failed_theta.rows(), expected);
+  EXPECT_GT(failed_theta.col(1).minCoeff(), 0.5);
+  const auto codes = f.read_strings("/analysis/failed/code");
+  EXPECT_EQ(codes.front(), "diverged");
+  const auto j = read_json(dir / "r.json");
+  EXPECT_FALSE(j["valid"].get<bool>());
+  EXPECT_EQ(j["failed_runs"].size(), static_cast<size_t>(expected));
+  EXPECT_NE(j["failed_runs"][0]["message"].get<std::string>().find("Newton diverged"), std::string::npos);
+}
+
+TEST(SensitivityCommand, SobolImputeMeanPolicyFlagsTheResultAndExitsZero) {
+  const auto dir = scratch_dir();
+  const auto config = write_file(dir / "failing.yaml", failing_sobol("impute-mean"));
+  const CliRun r = cli({"--log-level", "off", "sensitivity", config.string(), "-o", (dir / "r.h5").string()});
+  ASSERT_EQ(r.code, kExitOk) << r.err;
+  io::Hdf5Reader f(dir / "r.h5");
+  EXPECT_EQ(f.double_attribute("/analysis/sobol", "imputed"), 1.0);
+  EXPECT_GT(f.double_attribute("/analysis/failed", "count"), 0.0);
+  EXPECT_NE(f.string_attribute("/analysis/sobol", "message").find("imput"), std::string::npos);
+}
+
+struct BadConfig {
+  std::string yaml;
+  std::string location;  // "file:line:column" suffix expected in the message
+  std::string words;     // expected in the message
+};
+
+TEST(SensitivityCommand, BadConfigsGiveLocatedErrorsAndExitTwo) {
+  const auto dir = scratch_dir();
+  const std::string head = "name: bad\nsimulator: {model: test-beat}\nsensitivity:\n";
+  const std::vector<BadConfig> cases = {
+      {head + "  method: sobbol\n", "bad.yaml:4:11", "sobol"},
+      {head + "  method: sobol\n  sobl: {N: 64}\n", "bad.yaml:5:3", "did you mean 'sobol'"},
+      {head + "  method: sobol\n  model: ishigami\n  sobol: {N: 100}\n", "bad.yaml:6:", "power of two"},
+      {head + "  method: oat\n  parameters:\n    V_edd: {relative: 0.1}\n", "bad.yaml:6:5", "V_ed"},
+      {head + "  method: oat\n  parameters:\n    V_ed: {relative: 1.5}\n", "bad.yaml:6:", "(0, 1)"},
+      {head + "  method: oat\n  outputs: [EDV, EFF]\n  parameters:\n    V_ed: {relative: 0.1}\n", "bad.yaml:5:",
+       "EFF"},
+  };
+  for (const auto& c : cases) {
+    const auto config = write_file(dir / "bad.yaml", c.yaml);
+    const CliRun r = cli({"--log-level", "off", "sensitivity", config.string(), "-o", (dir / "r.h5").string()});
+    EXPECT_EQ(r.code, kExitBadInput) << c.yaml << r.err;
+    EXPECT_NE(r.err.find(c.location), std::string::npos) << c.yaml << "\n" << r.err;
+    EXPECT_NE(r.err.find(c.words), std::string::npos) << c.yaml << "\n" << r.err;
+    EXPECT_FALSE(std::filesystem::exists(dir / "r.h5"));
+  }
+}
+
+TEST(SensitivityCommand, MorrisDropsTrajectoriesWithFailedRunsAndSaysSo) {
+  const auto dir = scratch_dir();
+  const auto config = write_file(dir / "m.yaml",
+                                 "name: m\nsimulator: {model: test-beat, numerics: {samples: 41}}\n"
+                                 "sensitivity:\n  method: morris\n  outputs: [EDV]\n  parameters:\n"
+                                 "    V_ed: {relative: 0.2}\n    fail: {lower: 0.0, upper: 0.6}\n"
+                                 "  morris: {trajectories: 20, bootstrap: 100}\n");
+  const CliRun r = cli({"--log-level", "off", "sensitivity", config.string(), "-o", (dir / "r.h5").string(),
+                        "--summary", (dir / "r.json").string()});
+  ASSERT_EQ(r.code, kExitOk) << r.err;
+  const auto j = read_json(dir / "r.json");
+  const size_t dropped = j["trajectories_dropped"].size();
+  EXPECT_GT(dropped, 0u);
+  EXPECT_EQ(j["trajectories_used"].get<size_t>() + dropped, 20u);
+  // EDV = V_ed: mu* of V_ed is the EDV change over the whole range, 0.4 x 140 mL (the stand-in's
+  // default V_ed) = 56 mL, and sigma is 0 (a linear effect).
+  EXPECT_NEAR(j["indices"]["EDV"]["parameters"]["V_ed"]["mu_star"].get<double>(), 56.0, 1e-6);
+  EXPECT_NEAR(j["indices"]["EDV"]["parameters"]["V_ed"]["sigma"].get<double>(), 0.0, 1e-9);
+  EXPECT_NE(r.out.find("dropped for failed runs"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace sigmaheart::app

@@ -1,0 +1,106 @@
+// Shared helpers of the app tests: a scratch directory per test, files written from text, and a
+// tiny stand-in simulator ("test-beat") registered beside the real ones so that command tests
+// run in milliseconds and can fail on demand.
+#pragma once
+
+#include "app/simulators.h"
+#include "model/simulator.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+namespace sigmaheart::testing {
+
+// A fresh directory named after the running test, under the build tree.
+inline std::filesystem::path scratch_dir() {
+  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  const std::filesystem::path dir = std::filesystem::path(SIGMAHEART_BINARY_DIR) / "tests-app-scratch" /
+                                    (std::string(info->test_suite_name()) + "." + info->name());
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+inline std::filesystem::path write_file(const std::filesystem::path& path, const std::string& text) {
+  std::ofstream(path, std::ios::binary) << text;
+  return path;
+}
+
+inline std::string read_file(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// One beat of period 0.8 s: a cosine volume curve and a pressure pulse. Parameters: V_ed [m^3]
+// (end-diastolic volume), EF [1] (ejection fraction), P_peak [Pa] and `fail` [1] (> 0.5: the run
+// reports kDiverged). Channels V_lv [m^3], P_lv [Pa], phase [1].
+class BeatStandIn final : public model::Simulator {
+ public:
+  explicit BeatStandIn(model::ParameterSpace p, int samples) : params_(std::move(p)), samples_(samples) {}
+
+  static model::ParameterSpace defaults() {
+    return model::ParameterSpace({
+        {"V_ed", "m^3", 1.4e-4, 1e-5, 5e-4, "end-diastolic volume"},
+        {"EF", "1", 0.6, 0.05, 0.9, "ejection fraction"},
+        {"P_peak", "Pa", 16000.0, 1000.0, 40000.0, "peak LV pressure"},
+        {"fail", "1", 0.0, 0.0, 1.0, "> 0.5 makes the run fail"},
+    });
+  }
+
+  std::string name() const override { return "test-beat"; }
+  const model::ParameterSpace& parameters() const override { return params_; }
+  std::vector<model::Channel> channels() const override {
+    return {{"V_lv", "m^3", "volume"}, {"P_lv", "Pa", "pressure"}, {"phase", "1", "phase"}};
+  }
+  model::RunResult run(const Eigen::Ref<const Eigen::VectorXd>& theta) override {
+    model::RunResult r;
+    if (theta(3) > 0.5) {
+      r.status = model::Status::Error(model::StatusCode::kDiverged, "Newton diverged at t = 0.3 s");
+      return r;
+    }
+    const double period = 0.8;
+    r.trajectory.channels = channels();
+    r.trajectory.times = Eigen::VectorXd::LinSpaced(samples_, 0.0, period);
+    r.trajectory.values.resize(samples_, 3);
+    for (int k = 0; k < samples_; ++k) {
+      const double phi = 2.0 * M_PI * r.trajectory.times(k) / period;
+      const double s = 0.5 * (1.0 - std::cos(phi));  // 0 at ED, 1 at ES
+      r.trajectory.values(k, 0) = theta(0) * (1.0 - theta(1) * s);
+      r.trajectory.values(k, 1) = 1000.0 + (theta(2) - 1000.0) * std::pow(std::sin(phi / 2.0), 4);
+      r.trajectory.values(k, 2) = phi < M_PI ? 2.0 : 0.0;
+    }
+    r.info.beats = 3;
+    r.info.period = period;
+    r.info.periodicity_change = 1e-4;
+    return r;
+  }
+  std::unique_ptr<model::Simulator> clone() const override {
+    return std::make_unique<BeatStandIn>(*this);
+  }
+
+ private:
+  model::ParameterSpace params_;
+  int samples_;
+};
+
+// Registers "test-beat" (numerics: {samples: int >= 10}).
+inline void register_stand_in() {
+  app::register_simulator(app::SimulatorEntry{
+      "test-beat", "stand-in beat for tests", [] { return BeatStandIn::defaults(); },
+      [](const app::ConfigNode& numerics) -> app::SimulatorBuilder {
+        numerics.check_keys({"samples"});
+        const int samples = numerics.optional<int>("samples", 81);
+        if (samples < 10) numerics["samples"].fail("numerics.samples: expected an integer >= 10");
+        return [samples](const model::ParameterSpace& p) -> std::unique_ptr<model::Simulator> {
+          return std::make_unique<BeatStandIn>(p, samples);
+        };
+      }});
+}
+
+}  // namespace sigmaheart::testing

@@ -1,0 +1,170 @@
+#include "estimation/ensemble.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <memory>
+#include <stdexcept>
+#include <vector>
+
+namespace sigmaheart::estimation {
+namespace {
+
+// A cheap nonlinear map with deliberate failures: theta0 < 0 is a failed run, theta0 > 100
+// throws, theta1 > 50 returns NaN.
+class ToyModel final : public ForwardModel {
+ public:
+  int input_size() const override { return 2; }
+  std::vector<std::string> input_names() const override { return {"a", "b"}; }
+  std::vector<model::Channel> outputs() const override {
+    return {{"z0", "1", ""}, {"z1", "1", ""}, {"z2", "1", ""}};
+  }
+  model::Status evaluate(const Eigen::Ref<const Eigen::VectorXd>& theta,
+                         Eigen::Ref<Eigen::VectorXd> z) override {
+    ++calls;
+    if (theta(0) < 0) return model::Status::Error(model::StatusCode::kDiverged, "negative a");
+    if (theta(0) > 100) throw std::runtime_error("a too large");
+    z(0) = std::sin(theta(0)) * std::exp(0.1 * theta(1));
+    double acc = 0;
+    for (int k = 1; k <= 200; ++k) acc += std::cos(k * theta(0) + theta(1)) / k;
+    z(1) = acc;
+    z(2) = theta(1) > 50 ? std::numeric_limits<double>::quiet_NaN() : theta(0) * theta(1);
+    return model::Status::Ok();
+  }
+  std::unique_ptr<ForwardModel> clone() const override { return std::make_unique<ToyModel>(); }
+  int calls = 0;
+};
+
+Eigen::MatrixXd design(int members) {
+  Eigen::MatrixXd t(members, 2);
+  for (int i = 0; i < members; ++i) {
+    t(i, 0) = 0.3 + 0.17 * i;
+    t(i, 1) = std::cos(0.5 * i);
+  }
+  t(3, 0) = -1.0;   // fails with a Status
+  t(7, 0) = 200.0;  // throws
+  t(9, 1) = 60.0;   // NaN output
+  return t;
+}
+
+EnsembleOptions options(Backend backend, int threads = 0) {
+  EnsembleOptions o;
+  o.backend = backend;
+  o.threads = threads;
+  return o;
+}
+
+bool bitwise_equal(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
+  return a.rows() == b.rows() && a.cols() == b.cols() &&
+         std::memcmp(a.data(), b.data(), sizeof(double) * static_cast<size_t>(a.size())) == 0;
+}
+
+TEST(Ensemble, OneAndTwoThreadsGiveBitwiseIdenticalResultsIncludingFailures) {
+  const ToyModel proto;
+  const Eigen::MatrixXd thetas = design(23);
+  Ensemble serial(proto, options(Backend::kSerial));
+  Ensemble one(proto, options(Backend::kThreads, 1));
+  Ensemble two(proto, options(Backend::kThreads, 2));
+  EXPECT_EQ(two.workers(), 2);
+  const EnsembleResult rs = serial.evaluate(thetas);
+  const EnsembleResult r1 = one.evaluate(thetas);
+  const EnsembleResult r2 = two.evaluate(thetas);
+  EXPECT_TRUE(bitwise_equal(rs.Z, r1.Z));
+  EXPECT_TRUE(bitwise_equal(r1.Z, r2.Z));
+  ASSERT_EQ(r2.status.size(), 23u);
+  for (size_t i = 0; i < 23; ++i) {
+    EXPECT_EQ(r1.status[i].code, r2.status[i].code);
+    EXPECT_EQ(r1.status[i].message, r2.status[i].message);
+  }
+  EXPECT_EQ(r2.failures(), 3);
+  EXPECT_EQ(r2.failed_members(), (std::vector<int>{3, 7, 9}));
+  EXPECT_EQ(r2.status[3].code, model::StatusCode::kDiverged);
+  EXPECT_EQ(r2.status[7].code, model::StatusCode::kInvalidArgument);
+  EXPECT_NE(r2.status[7].message.find("a too large"), std::string::npos);
+  EXPECT_EQ(r2.status[9].code, model::StatusCode::kNonFinite);
+  EXPECT_TRUE(r2.Z.row(7).array().isNaN().all());
+  // A good member holds the value of a direct evaluation.
+  ToyModel direct;
+  Eigen::VectorXd z(3);
+  ASSERT_TRUE(direct.evaluate(thetas.row(5).transpose(), z).ok());
+  EXPECT_NEAR(r2.Z(5, 0), z(0), 0.0);
+  EXPECT_NEAR(r2.Z(5, 1), z(1), 0.0);
+}
+
+TEST(Ensemble, ProgressCountsEveryMemberOnce) {
+  const ToyModel proto;
+  int calls = 0;
+  int last = 0;
+  EnsembleOptions opt = options(Backend::kThreads, 2);
+  opt.progress = [&](int done, int total) {
+    ++calls;
+    last = std::max(last, done);
+    EXPECT_EQ(total, 11);
+  };
+  Ensemble e(proto, opt);
+  e.evaluate(design(11));
+  EXPECT_EQ(calls, 11);
+  EXPECT_EQ(last, 11);
+}
+
+TEST(Ensemble, ForEachRunsEveryMemberOnceAndRethrowsTheFirstError) {
+  const ToyModel proto;
+  Ensemble e(proto, options(Backend::kThreads, 2));
+  std::vector<double> out(17, 0.0);
+  e.for_each(17, [&](int m, int w) {
+    Eigen::VectorXd z(3);
+    Eigen::Vector2d t(0.1 * m + 0.05, 0.2);
+    ASSERT_TRUE(e.worker_model(w).evaluate(t, z).ok());
+    out[static_cast<size_t>(m)] += z(0);
+  });
+  for (int m = 0; m < 17; ++m) {
+    EXPECT_NEAR(out[static_cast<size_t>(m)], std::sin(0.1 * m + 0.05) * std::exp(0.02), 1e-15);
+  }
+  try {
+    e.for_each(9, [](int m, int) {
+      if (m == 4 || m == 6) throw std::runtime_error("member " + std::to_string(m));
+    });
+    FAIL() << "expected an exception";
+  } catch (const std::runtime_error& error) {
+    EXPECT_STREQ(error.what(), "member 4");
+  }
+}
+
+TEST(Ensemble, MapRowsFillsRowsAndTurnsFailuresIntoStatuses) {
+  const ToyModel proto;
+  Ensemble e(proto, options(Backend::kThreads, 2));
+  const EnsembleResult r = e.map_rows(6, 2, [](int m, int, Eigen::Ref<Eigen::VectorXd> row) {
+    if (m == 2) return model::Status::Error(model::StatusCode::kTimeout, "slow");
+    row << m, 2.0 * m;
+    return model::Status::Ok();
+  });
+  EXPECT_NEAR(r.Z(5, 1), 10.0, 0.0);
+  EXPECT_TRUE(std::isnan(r.Z(2, 0)));
+  EXPECT_EQ(r.failed_members(), (std::vector<int>{2}));
+}
+
+TEST(Ensemble, MpiBackendWithoutAnActiveSessionRunsAsOneRank) {
+  const ToyModel proto;
+  EnsembleOptions opt = options(Backend::kMpi, 2);
+  if (!mpi_compiled()) {
+    EXPECT_FALSE(opt.validate().empty());
+    return;
+  }
+  EXPECT_EQ(mpi_size(), 1);
+  Ensemble mpi(proto, opt);
+  Ensemble serial(proto, options(Backend::kSerial));
+  const Eigen::MatrixXd thetas = design(12);
+  EXPECT_TRUE(bitwise_equal(mpi.evaluate(thetas).Z, serial.evaluate(thetas).Z));
+}
+
+TEST(Ensemble, OptionsValidationNamesTheProblem) {
+  EXPECT_NE(options(Backend::kThreads, -2).validate().find("threads"),
+            std::string::npos);
+  EXPECT_EQ(parse_backend("mpi"), Backend::kMpi);
+  EXPECT_FALSE(parse_backend("gpu").has_value());
+}
+
+}  // namespace
+}  // namespace sigmaheart::estimation

@@ -1,0 +1,469 @@
+// Tests of the ROUKF (estimation/roukf/roukf.h) against known answers: the Kalman filter on a
+// linear-Gaussian model, the Unscented-Transform update for one analysis, the U reset, prediction-
+// only stretches, missing observations and the failure policies.
+#include "estimation/roukf/roukf.h"
+
+#include "estimation/roukf/steppable_forward_model.h"
+#include "estimation/sigma_points.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Dense>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace sigmaheart::estimation {
+namespace {
+
+using Eigen::MatrixXd;
+using Eigen::VectorXd;
+
+// y_{j+1} = A y_j + B theta + (nonlinear ? 0.1 sin(y_j) : 0) on a grid of step dt;
+// channels z = C y + D theta (+ 0.05 y_0^2 when nonlinear). Two parameters "a", "b".
+// A member fails (kDiverged) when theta(0) > fail_above unless the copy is `refined`.
+class LinearSimulator final : public model::SteppableSimulator {
+ public:
+  LinearSimulator() {
+    A << 0.9, 0.2, 0.0,  //
+        -0.1, 0.8, 0.1,  //
+        0.05, 0.0, 0.95;
+    B << 0.1, 0.0,  //
+        0.0, 0.2,   //
+        0.05, 0.05;
+    C << 1.0, 0.0, 0.5,  //
+        0.0, 1.0, -0.3;
+    D << 0.0, 0.1,  //
+        0.2, 0.0;
+    y0 << 1.0, -0.5, 0.25;
+    space = model::ParameterSpace({{"a", "1", 1.0, -10, 10, "first"},
+                                   {"b", "1", 2.0, -10, 10, "second"}});
+  }
+
+  Eigen::Matrix3d A;
+  Eigen::Matrix<double, 3, 2> B;
+  Eigen::Matrix<double, 2, 3> C;
+  Eigen::Matrix2d D;
+  Eigen::Vector3d y0;
+  model::ParameterSpace space;
+  double dt = 0.1;
+  bool nonlinear = false;
+  double fail_above = std::numeric_limits<double>::infinity();
+  bool refined = false;
+  Eigen::Matrix<double, 3, 2> G = Eigen::Matrix<double, 3, 2>::Zero();  // y0(theta) = y0 + G theta
+
+  std::string name() const override { return "linear"; }
+  const model::ParameterSpace& parameters() const override { return space; }
+  std::vector<model::Channel> channels() const override {
+    return {{"z1", "1", ""}, {"z2", "1", ""}};
+  }
+  model::RunResult run(const Eigen::Ref<const VectorXd>& theta) override {
+    model::RunResult r;
+    r.trajectory.channels = channels();
+    model::State s = initial_state(theta);
+    r.trajectory.times.resize(11);
+    r.trajectory.values.resize(11, 2);
+    for (int k = 0; k <= 10; ++k) {
+      if (k > 0) r.status = advance(s, theta, k * dt);
+      if (!r.status.ok()) return r;
+      r.trajectory.times(k) = s.time;
+      r.trajectory.values.row(k) = sample(s, theta).transpose();
+    }
+    return r;
+  }
+  std::unique_ptr<model::Simulator> clone() const override {
+    return std::make_unique<LinearSimulator>(*this);
+  }
+  std::vector<model::Channel> state_layout() const override {
+    return {{"y1", "1", ""}, {"y2", "1", ""}, {"y3", "1", ""}};
+  }
+  model::State initial_state(const Eigen::Ref<const VectorXd>& theta) override {
+    return {0.0, y0 + G * theta};
+  }
+  model::Status advance(model::State& s, const Eigen::Ref<const VectorXd>& theta,
+                        double t_end) override {
+    if (theta(0) > fail_above && !refined) {
+      return model::Status::Error(model::StatusCode::kDiverged, "a too large for this step");
+    }
+    const long steps = std::lround((t_end - s.time) / dt);
+    for (long j = 0; j < steps; ++j) {
+      VectorXd next = A * s.x + B * theta;
+      if (nonlinear) next += 0.1 * s.x.array().sin().matrix();
+      s.x = next;
+    }
+    s.time = t_end;
+    return model::Status::Ok();
+  }
+  VectorXd sample(const model::State& s, const Eigen::Ref<const VectorXd>& theta) const override {
+    VectorXd z = C * s.x + D * theta;
+    if (nonlinear) z(0) += 0.05 * s.x(0) * s.x(0);
+    return z;
+  }
+
+  // Augmented transition over `steps` grid steps and observation matrix (linear case).
+  MatrixXd F(int steps) const {
+    MatrixXd f = MatrixXd::Identity(5, 5), one = MatrixXd::Identity(5, 5);
+    one.topLeftCorner(3, 3) = A;
+    one.topRightCorner(3, 2) = B;
+    for (int j = 0; j < steps; ++j) f = one * f;
+    return f;
+  }
+  MatrixXd H() const {
+    MatrixXd h(2, 5);
+    h << C, D;
+    return h;
+  }
+};
+
+// Frames every 0.3 s; values from the truth theta = (1.5, 1.2) with a fixed pseudo-noise.
+RoukfData make_data(const LinearSimulator& sim, int frames) {
+  RoukfData data;
+  data.channels = {"z1", "z2"};
+  data.times.resize(frames);
+  data.values.resize(frames, 2);
+  LinearSimulator truth = sim;
+  Eigen::Vector2d theta(1.5, 1.2);
+  model::State s = truth.initial_state(theta);
+  for (int k = 0; k < frames; ++k) {
+    data.times(k) = 0.3 * (k + 1);
+    EXPECT_TRUE(truth.advance(s, theta, data.times(k)).ok());
+    const VectorXd z = truth.sample(s, theta);
+    data.values(k, 0) = z(0) + 0.05 * std::sin(3.1 * k + 0.2);
+    data.values(k, 1) = z(1) + 0.05 * std::cos(1.7 * k);
+  }
+  return data;
+}
+
+RoukfOptions linear_options() {
+  RoukfOptions o;
+  o.parameters = {{"a", {}, 1.0, 0.5}, {"b", {}, 2.0, 0.3}};
+  o.R = Eigen::Vector2d(0.05 * 0.05, 0.08 * 0.08).asDiagonal();
+  o.ensemble.backend = Backend::kSerial;
+  o.record_factors = true;
+  return o;
+}
+
+// The augmented-state Kalman filter on (y, theta) with P0 = diag(0, S0^2). Missing entries of a
+// frame (NaN) drop the corresponding rows of H.
+struct KalmanStep {
+  VectorXd x;
+  MatrixXd P;
+};
+std::vector<KalmanStep> kalman(const LinearSimulator& sim, const RoukfData& data,
+                               const RoukfOptions& o) {
+  VectorXd x(5);
+  const Eigen::Vector2d eta0(o.parameters[0].prior_eta, o.parameters[1].prior_eta);
+  x << sim.y0 + sim.G * eta0, eta0;
+  MatrixXd P = MatrixXd::Zero(5, 5);
+  P(3, 3) = std::pow(o.parameters[0].prior_std_eta, 2);
+  P(4, 4) = std::pow(o.parameters[1].prior_std_eta, 2);
+  if (o.initial_state_per_member) {  // y0 moves with theta: P0 = [G; I] P_eta [G; I]^T
+    MatrixXd T(5, 2);
+    T << sim.G, MatrixXd::Identity(2, 2);
+    P = T * P.bottomRightCorner(2, 2) * T.transpose();
+  }
+  std::vector<KalmanStep> out;
+  double t = 0.0;
+  for (int k = 0; k < data.times.size(); ++k) {
+    const MatrixXd F = sim.F(static_cast<int>(std::lround((data.times(k) - t) / sim.dt)));
+    x = F * x;
+    P = F * P * F.transpose() / o.forgetting;
+    std::vector<int> present;
+    for (int c = 0; c < 2; ++c) {
+      if (std::isfinite(data.values(k, c))) present.push_back(c);
+    }
+    if (!present.empty()) {
+      const int m = static_cast<int>(present.size());
+      MatrixXd H(m, 5), R(m, m);
+      VectorXd y(m);
+      for (int a = 0; a < m; ++a) {
+        H.row(a) = sim.H().row(present[a]);
+        y(a) = data.values(k, present[a]);
+        for (int b = 0; b < m; ++b) R(a, b) = o.R(present[a], present[b]);
+      }
+      const MatrixXd S = H * P * H.transpose() + R;
+      const MatrixXd K = P * H.transpose() * S.inverse();
+      x += K * (y - H * x);
+      P = P - K * S * K.transpose();
+    }
+    out.push_back({x, P});
+    t = data.times(k);
+  }
+  return out;
+}
+
+MatrixXd covariance(const RoukfStep& s) {
+  return s.L * s.U.llt().solve(s.L.transpose());
+}
+
+TEST(Roukf, EqualsKalmanFilterOnLinearModel) {
+  LinearSimulator sim;
+  const RoukfData data = make_data(sim, 12);
+  const RoukfOptions o = linear_options();
+  const RoukfSummary s = run_roukf(sim, data, o);
+  ASSERT_TRUE(s.ok()) << s.message;
+  const auto kf = kalman(sim, data, o);
+  ASSERT_EQ(s.steps.size(), kf.size());
+  for (size_t k = 0; k < kf.size(); ++k) {
+    EXPECT_LE((s.steps[k].x - kf[k].x).cwiseAbs().maxCoeff(), 1e-10) << "step " << k;
+    EXPECT_LE((covariance(s.steps[k]) - kf[k].P).cwiseAbs().maxCoeff(), 1e-10) << "step " << k;
+  }
+  // The parameters moved from the prior towards the truth (1.5, 1.2).
+  EXPECT_NEAR(s.theta(0), 1.5, 0.15);
+  EXPECT_NEAR(s.theta(1), 1.2, 0.15);
+  EXPECT_LT(s.eta_covariance(0, 0), 0.25 * 0.5 * 0.5);
+}
+
+TEST(Roukf, EqualsKalmanFilterWithCanonicalAndStarPoints) {
+  LinearSimulator sim;
+  const RoukfData data = make_data(sim, 6);
+  const auto kf = kalman(sim, data, linear_options());
+  for (SigmaRule rule : {SigmaRule::kCanonical, SigmaRule::kStar}) {
+    RoukfOptions o = linear_options();
+    o.sigma_rule = rule;
+    const RoukfSummary s = run_roukf(sim, data, o);
+    ASSERT_TRUE(s.ok()) << s.message;
+    EXPECT_LE((s.steps.back().x - kf.back().x).cwiseAbs().maxCoeff(), 1e-10) << to_string(rule);
+    EXPECT_LE((covariance(s.steps.back()) - kf.back().P).cwiseAbs().maxCoeff(), 1e-10);
+  }
+}
+
+TEST(Roukf, OneAnalysisWithSimplexPointsEqualsTheUnscentedTransformUpdate) {
+  LinearSimulator sim;
+  sim.nonlinear = true;
+  RoukfData data = make_data(sim, 1);
+  RoukfOptions o = linear_options();
+  for (auto& q : o.parameters) {  // log transforms: theta = theta_ref exp(eta)
+    q.transform = Transform{TransformKind::kLog, q.prior_eta};
+    q.prior_eta = 0.0;
+  }
+  const RoukfSummary s = run_roukf(sim, data, o);
+  ASSERT_TRUE(s.ok()) << s.message;
+
+  // Direct UT (ESTIMATION.md s.3) on the augmented state from the same prior.
+  const SigmaPoints sp = make_sigma_points(2, SigmaOptions{});
+  VectorXd mean(5);
+  mean << sim.y0, 0.0, 0.0;
+  MatrixXd P0 = MatrixXd::Zero(5, 5);
+  P0(3, 3) = 0.25;
+  P0(4, 4) = 0.09;
+  const Eigen::Matrix2d S0 = covariance_sqrt(P0.bottomRightCorner(2, 2));
+  const int r = sp.count();
+  MatrixXd X(5, r), Z(2, r);
+  for (int i = 0; i < r; ++i) {
+    const VectorXd eta = S0 * sp.unit.col(i);
+    const Eigen::Vector2d theta(1.0 * std::exp(eta(0)), 2.0 * std::exp(eta(1)));
+    model::State st{0.0, sim.y0};
+    ASSERT_TRUE(sim.advance(st, theta, data.times(0)).ok());
+    X.col(i) << st.x, eta;
+    Z.col(i) = sim.sample(st, theta);
+  }
+  const VectorXd xm = X * sp.wm, zm = Z * sp.wm;
+  const MatrixXd dX = X.colwise() - xm, dZ = Z.colwise() - zm;
+  const MatrixXd Pxx = dX * sp.wc.asDiagonal() * dX.transpose();
+  const MatrixXd Pxz = dX * sp.wc.asDiagonal() * dZ.transpose();
+  const MatrixXd Pzz = dZ * sp.wc.asDiagonal() * dZ.transpose() + o.R;
+  const MatrixXd K = Pxz * Pzz.inverse();
+  const VectorXd y = data.values.row(0).transpose();
+  const VectorXd x_ut = xm + K * (y - zm);
+  const MatrixXd P_ut = Pxx - K * Pzz * K.transpose();
+
+  EXPECT_LE((s.steps[0].x - x_ut).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_LE((covariance(s.steps[0]) - P_ut).cwiseAbs().maxCoeff(), 1e-12);
+  // Diagnostics of that analysis: innovation and NIS with S = Pzz.
+  const VectorXd d = y - zm;
+  EXPECT_LE((s.steps[0].innovation - d).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_NEAR(s.steps[0].nis, d.dot(Pzz.inverse() * d), 1e-10 * (1 + s.steps[0].nis));
+  const double ll = -0.5 * (2 * std::log(2 * M_PI) + std::log(Pzz.determinant()) +
+                            d.dot(Pzz.inverse() * d));
+  EXPECT_NEAR(s.steps[0].log_likelihood, ll, 1e-10 * (1 + std::abs(ll)));
+  // The +-2 sigma interval in theta is the transform of the interval in eta.
+  EXPECT_NEAR(s.steps[0].theta_upper(0),
+              1.0 * std::exp(s.steps[0].eta(0) + 2 * std::sqrt(P_ut(3, 3))), 1e-12);
+}
+
+TEST(Roukf, ForgettingFactorEqualsTheFadingMemoryKalmanFilter) {
+  LinearSimulator sim;
+  const RoukfData data = make_data(sim, 10);
+  RoukfOptions o = linear_options();
+  o.forgetting = 0.9;
+  const RoukfSummary s = run_roukf(sim, data, o);
+  ASSERT_TRUE(s.ok()) << s.message;
+  const auto kf = kalman(sim, data, o);
+  for (size_t k = 0; k < kf.size(); ++k) {
+    EXPECT_LE((s.steps[k].x - kf[k].x).cwiseAbs().maxCoeff(), 1e-10) << "step " << k;
+    EXPECT_LE((covariance(s.steps[k]) - kf[k].P).cwiseAbs().maxCoeff(), 1e-10) << "step " << k;
+  }
+  // Fading memory keeps the parameter spread above the plain filter's.
+  const RoukfSummary plain = run_roukf(sim, data, linear_options());
+  EXPECT_GT(s.eta_covariance(0, 0), 1.5 * plain.eta_covariance(0, 0));
+}
+
+TEST(Roukf, PerMemberInitialStatesCarryTheInitialStateParameterCorrelation) {
+  LinearSimulator sim;
+  sim.G << 0.5, 0.0,  //
+      0.0, -0.3,      //
+      0.2, 0.1;
+  const RoukfData data = make_data(sim, 6);
+  RoukfOptions o = linear_options();
+  o.initial_state_per_member = true;
+  const RoukfSummary s = run_roukf(sim, data, o);
+  ASSERT_TRUE(s.ok()) << s.message;
+  const auto kf = kalman(sim, data, o);
+  for (size_t k = 0; k < kf.size(); ++k) {
+    EXPECT_LE((s.steps[k].x - kf[k].x).cwiseAbs().maxCoeff(), 1e-10) << "step " << k;
+    EXPECT_LE((covariance(s.steps[k]) - kf[k].P).cwiseAbs().maxCoeff(), 1e-10) << "step " << k;
+  }
+}
+
+TEST(Roukf, UIsResetToIdentityAfterAPredictionWithoutData) {
+  LinearSimulator sim;
+  RoukfData data = make_data(sim, 4);
+  data.values.row(2).setConstant(std::nan(""));
+  const RoukfSummary s = run_roukf(sim, data, linear_options());
+  ASSERT_TRUE(s.ok()) << s.message;
+  EXPECT_GT((s.steps[1].U - MatrixXd::Identity(2, 2)).norm(), 1e-3);  // after an analysis
+  EXPECT_EQ(s.steps[2].observed, 0);
+  EXPECT_EQ((s.steps[2].U - MatrixXd::Identity(2, 2)).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_TRUE(std::isnan(s.steps[2].innovation(0)));
+}
+
+TEST(Roukf, PredictionOnlyStretchKeepsTheKalmanCovariance) {
+  LinearSimulator sim;
+  RoukfData data = make_data(sim, 9);
+  for (int k = 2; k < 7; ++k) data.values.row(k).setConstant(std::nan(""));
+  const RoukfOptions o = linear_options();
+  const RoukfSummary s = run_roukf(sim, data, o);
+  ASSERT_TRUE(s.ok()) << s.message;
+  const auto kf = kalman(sim, data, o);
+  for (int k = 2; k < 9; ++k) {
+    EXPECT_LE((s.steps[k].x - kf[k].x).cwiseAbs().maxCoeff(), 1e-10) << "step " << k;
+    EXPECT_LE((covariance(s.steps[k]) - kf[k].P).cwiseAbs().maxCoeff(), 1e-10) << "step " << k;
+  }
+  // Without data the parameter covariance does not change (parameters are constant in time).
+  EXPECT_LE((s.steps[6].L.bottomRows(2) * s.steps[6].L.bottomRows(2).transpose() -
+             covariance(s.steps[1]).bottomRightCorner(2, 2))
+                .cwiseAbs()
+                .maxCoeff(),
+            1e-12);
+}
+
+TEST(Roukf, MissingChannelsUseOnlyThePresentOnes) {
+  LinearSimulator sim;
+  RoukfData data = make_data(sim, 8);
+  data.values(1, 0) = std::nan("");
+  data.values(4, 1) = std::nan("");
+  RoukfOptions o = linear_options();
+  o.R(0, 1) = o.R(1, 0) = 0.001;  // correlated noise: the sub-matrix must be used
+  const RoukfSummary s = run_roukf(sim, data, o);
+  ASSERT_TRUE(s.ok()) << s.message;
+  const auto kf = kalman(sim, data, o);
+  EXPECT_EQ(s.steps[1].observed, 1);
+  for (size_t k = 0; k < kf.size(); ++k) {
+    EXPECT_LE((s.steps[k].x - kf[k].x).cwiseAbs().maxCoeff(), 1e-10) << "step " << k;
+    EXPECT_LE((covariance(s.steps[k]) - kf[k].P).cwiseAbs().maxCoeff(), 1e-10) << "step " << k;
+  }
+}
+
+TEST(Roukf, RepeatedBeatsReuseTheDataShiftedByThePeriod) {
+  LinearSimulator sim;
+  RoukfData data = make_data(sim, 3);  // frames at 0.3, 0.6, 0.9
+  RoukfOptions o = linear_options();
+  o.beats = 2;
+  o.period = 1.2;
+  const RoukfSummary s = run_roukf(sim, data, o);
+  ASSERT_TRUE(s.ok()) << s.message;
+  ASSERT_EQ(s.steps.size(), 6u);
+  EXPECT_DOUBLE_EQ(s.steps[4].time, 0.6 + 1.2);
+  EXPECT_EQ(s.steps[4].beat, 1);
+  EXPECT_EQ(s.steps[4].frame, 1);
+}
+
+TEST(Roukf, ResultsDoNotDependOnTheThreadCount) {
+  LinearSimulator sim;
+  sim.nonlinear = true;
+  const RoukfData data = make_data(sim, 6);
+  RoukfOptions o = linear_options();
+  const RoukfSummary serial = run_roukf(sim, data, o);
+  o.ensemble.backend = Backend::kThreads;
+  o.ensemble.threads = 2;
+  const RoukfSummary threaded = run_roukf(sim, data, o);
+  ASSERT_TRUE(serial.ok() && threaded.ok());
+  EXPECT_EQ((serial.steps.back().x - threaded.steps.back().x).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_EQ((serial.eta_covariance - threaded.eta_covariance).cwiseAbs().maxCoeff(), 0.0);
+}
+
+TEST(Roukf, FailedMemberIsRetriedWithARefinedTimeStep) {
+  LinearSimulator sim;
+  const RoukfData data = make_data(sim, 3);
+  sim.fail_above = 1.45;  // the member with the largest 'a' (1.61) fails
+  RoukfOptions o = linear_options();
+  int levels_asked = 0;
+  o.refine = [&levels_asked](const model::SteppableSimulator& s, int level) {
+    // Stands in for a halved time step: the copy accepts every theta and keeps the same map.
+    auto c = std::make_unique<LinearSimulator>(dynamic_cast<const LinearSimulator&>(s));
+    c->refined = true;
+    levels_asked = std::max(levels_asked, level);
+    return std::unique_ptr<model::SteppableSimulator>(std::move(c));
+  };
+  const RoukfSummary s = run_roukf(sim, data, o);
+  ASSERT_TRUE(s.ok()) << s.message;
+  EXPECT_GE(s.retries, 1);
+  EXPECT_EQ(levels_asked, 1);
+  ASSERT_FALSE(s.steps[0].actions.empty());
+  EXPECT_NE(s.steps[0].actions[0].what.find("recovered"), std::string::npos);
+  EXPECT_EQ(s.skipped_analyses, 0);
+  // The retried member gives the same numbers as an unfailing model: the KF.
+  const auto kf = kalman(sim, data, o);
+  EXPECT_LE((s.steps.back().x - kf.back().x).cwiseAbs().maxCoeff(), 1e-10);
+}
+
+TEST(Roukf, WithoutRetriesAFailureShrinksTheSpreadAndSkipsTheAnalysis) {
+  LinearSimulator sim;
+  const RoukfData data = make_data(sim, 3);
+  sim.fail_above = 1.45;  // the full spread reaches a = 1.61, the halved one 1.31
+  RoukfOptions o = linear_options();
+  o.failure_policy = RoukfFailurePolicy::kSkipWithInflation;
+  const RoukfSummary s = run_roukf(sim, data, o);
+  ASSERT_TRUE(s.ok()) << s.message;
+  EXPECT_TRUE(s.steps[0].analysis_skipped);
+  EXPECT_GE(s.skipped_analyses, 1);
+  // Linear model: the shrunk re-run gives the same factor; the skip inflates P_eta by 1.1.
+  EXPECT_NEAR(covariance(s.steps[0])(3, 3), 1.1 * 0.25, 1e-12);
+  EXPECT_NEAR(s.steps[0].eta(0), 1.0, 1e-12);  // no analysis: the prior mean
+}
+
+TEST(Roukf, AbortPolicyReportsTheFailedMembersParameters) {
+  LinearSimulator sim;
+  const RoukfData data = make_data(sim, 3);
+  sim.fail_above = 1.45;  // the full spread reaches a = 1.61, the halved one 1.31
+  RoukfOptions o = linear_options();
+  o.failure_policy = RoukfFailurePolicy::kAbort;
+  const RoukfSummary s = run_roukf(sim, data, o);
+  EXPECT_EQ(s.termination, RoukfTermination::kMemberFailed);
+  EXPECT_NE(s.message.find("a = "), std::string::npos) << s.message;
+  EXPECT_NE(s.message.find("too large"), std::string::npos) << s.message;
+}
+
+TEST(Roukf, UnknownParameterIsReportedWithASuggestion) {
+  LinearSimulator sim;
+  RoukfOptions o = linear_options();
+  o.parameters[1].name = "bb";
+  const RoukfSummary s = run_roukf(sim, make_data(sim, 2), o);
+  EXPECT_EQ(s.termination, RoukfTermination::kInvalidInput);
+  EXPECT_NE(s.message.find("did you mean 'b'"), std::string::npos) << s.message;
+}
+
+TEST(Roukf, MismatchedNoiseCovarianceIsRejectedUpFront) {
+  LinearSimulator sim;
+  RoukfOptions o = linear_options();
+  o.R = MatrixXd::Identity(3, 3);
+  const RoukfSummary s = run_roukf(sim, make_data(sim, 2), o);
+  EXPECT_EQ(s.termination, RoukfTermination::kInvalidInput);
+  EXPECT_EQ(s.member_runs, 0);
+}
+
+}  // namespace
+}  // namespace sigmaheart::estimation

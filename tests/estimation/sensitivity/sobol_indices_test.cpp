@@ -1,0 +1,211 @@
+#include "estimation/sensitivity/sobol_indices.h"
+
+#include "estimation/sensitivity/test_functions.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace sh = sigmaheart::estimation::sensitivity;
+using sigmaheart::estimation::Backend;
+using sigmaheart::estimation::ForwardModel;
+namespace model = sigmaheart::model;
+
+namespace {
+
+sh::SobolOptions options(int N, std::uint64_t seed = 2024) {
+  sh::SobolOptions o;
+  o.base_samples = N;
+  o.seed = seed;
+  o.bootstrap_samples = 400;
+  o.convergence_levels = 4;
+  o.ensemble.backend = Backend::kThreads;
+  o.ensemble.threads = 2;
+  return o;
+}
+
+// Ishigami, but runs with x1 > limit fail (a simulator that diverges in part of the space).
+class FailingIshigami final : public ForwardModel {
+ public:
+  explicit FailingIshigami(double limit) : limit_(limit) {}
+  int input_size() const override { return 3; }
+  std::vector<std::string> input_names() const override { return {"x1", "x2", "x3"}; }
+  std::vector<model::Channel> outputs() const override { return inner_.outputs(); }
+  model::Status evaluate(const Eigen::Ref<const Eigen::VectorXd>& theta,
+                         Eigen::Ref<Eigen::VectorXd> z) override {
+    if (theta(0) > limit_) return model::Status::Error(model::StatusCode::kDiverged, "diverged");
+    return inner_.evaluate(theta, z);
+  }
+  std::unique_ptr<ForwardModel> clone() const override {
+    return std::make_unique<FailingIshigami>(*this);
+  }
+
+ private:
+  double limit_;
+  sh::IshigamiModel inner_;
+};
+
+// Two outputs from the same inputs: y1 = x1 + 2 x2, y2 = x2 x3 (vector output in one design).
+class TwoOutputs final : public ForwardModel {
+ public:
+  int input_size() const override { return 3; }
+  std::vector<std::string> input_names() const override { return {"x1", "x2", "x3"}; }
+  std::vector<model::Channel> outputs() const override {
+    return {{"y1", "1", ""}, {"y2", "1", ""}};
+  }
+  model::Status evaluate(const Eigen::Ref<const Eigen::VectorXd>& x,
+                         Eigen::Ref<Eigen::VectorXd> z) override {
+    z(0) = x(0) + 2.0 * x(1);
+    z(1) = x(1) * x(2);
+    return model::Status::Ok();
+  }
+  std::unique_ptr<ForwardModel> clone() const override { return std::make_unique<TwoOutputs>(); }
+};
+
+}  // namespace
+
+TEST(SobolIndices, IshigamiEstimatesContainTheExactIndicesInTheirBootstrapIntervals) {
+  const auto exact = sh::ishigami_exact();
+  const auto r = sh::run_sobol(sh::IshigamiModel(), sh::ishigami_ranges(), options(8192));
+  ASSERT_TRUE(r.valid) << r.report();
+  EXPECT_EQ(r.runs, 8192 * 5);
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_NEAR(r.estimate.S1(i, 0), exact.S1(i), 0.01) << r.report();
+    EXPECT_NEAR(r.estimate.ST(i, 0), exact.ST(i), 0.01) << r.report();
+    EXPECT_LE(r.estimate.S1_low(i, 0), exact.S1(i)) << r.report();
+    EXPECT_GE(r.estimate.S1_high(i, 0), exact.S1(i)) << r.report();
+    EXPECT_LE(r.estimate.ST_low(i, 0), exact.ST(i)) << r.report();
+    EXPECT_GE(r.estimate.ST_high(i, 0), exact.ST(i)) << r.report();
+  }
+}
+
+TEST(SobolIndices, IntervalWidthsShrinkAsTheDesignGrows) {
+  const auto r = sh::run_sobol(sh::IshigamiModel(), sh::ishigami_ranges(), options(8192));
+  ASSERT_EQ(r.convergence.size(), 4u);
+  EXPECT_EQ(r.convergence[0].n, 8192);
+  EXPECT_EQ(r.convergence[3].n, 1024);
+  for (int i = 0; i < 3; ++i) {
+    for (size_t l = 0; l + 1 < r.convergence.size(); ++l) {
+      const auto& big = r.convergence[l];
+      const auto& small = r.convergence[l + 1];
+      EXPECT_LT(big.ST_high(i, 0) - big.ST_low(i, 0), small.ST_high(i, 0) - small.ST_low(i, 0))
+          << "x" << i + 1 << " n " << big.n;
+    }
+    // Eight times the rows: the width falls by about sqrt(8) ~ 2.8; at least by 2.
+    const double w_big = r.convergence[0].S1_high(i, 0) - r.convergence[0].S1_low(i, 0);
+    const double w_small = r.convergence[3].S1_high(i, 0) - r.convergence[3].S1_low(i, 0);
+    EXPECT_LT(2.0 * w_big, w_small) << "x" << i + 1;
+  }
+}
+
+TEST(SobolIndices, GFunctionEstimatesMatchTheExactIndices) {
+  const Eigen::VectorXd a = sh::g_function_default_a();
+  const auto exact = sh::g_function_exact(a);
+  const auto r = sh::run_sobol(sh::GFunctionModel(a), sh::g_function_ranges(8), options(8192, 7));
+  ASSERT_TRUE(r.valid) << r.report();
+  for (int i = 0; i < 8; ++i) {
+    EXPECT_NEAR(r.estimate.S1(i, 0), exact.S1(i), 0.01) << "x" << i + 1 << "\n" << r.report();
+    EXPECT_NEAR(r.estimate.ST(i, 0), exact.ST(i), 0.01) << "x" << i + 1 << "\n" << r.report();
+    EXPECT_LE(r.estimate.ST_low(i, 0), exact.ST(i)) << "x" << i + 1 << "\n" << r.report();
+    EXPECT_GE(r.estimate.ST_high(i, 0), exact.ST(i)) << "x" << i + 1 << "\n" << r.report();
+    EXPECT_LE(r.estimate.S1_low(i, 0), exact.S1(i)) << "x" << i + 1 << "\n" << r.report();
+    EXPECT_GE(r.estimate.S1_high(i, 0), exact.S1(i)) << "x" << i + 1 << "\n" << r.report();
+  }
+  // The unimportant inputs have tiny total indices.
+  for (int i = 4; i < 8; ++i) EXPECT_LT(r.estimate.ST(i, 0), 0.002);
+}
+
+TEST(SobolIndices, VectorOutputsAreAnalysedFromOneDesign) {
+  // y1 = x1 + 2 x2 on [0,1]^3: S1 = ST = (1/5, 4/5, 0). y2 = x2 x3: S1 = (0, 3/7, 3/7),
+  // ST = (0, 4/7, 4/7) (V = 7/144, V2 = V3 = 1/48, V23 = 1/144).
+  const auto r = sh::run_sobol(TwoOutputs(), sh::g_function_ranges(3), options(4096));
+  ASSERT_TRUE(r.valid);
+  ASSERT_EQ(r.estimate.S1.rows(), 3);
+  ASSERT_EQ(r.estimate.S1.cols(), 2);
+  EXPECT_EQ(r.runs, 4096 * 5);
+  const Eigen::Vector3d S1_y1(0.2, 0.8, 0.0), S1_y2(0.0, 3.0 / 7.0, 3.0 / 7.0);
+  const Eigen::Vector3d ST_y2(0.0, 4.0 / 7.0, 4.0 / 7.0);
+  EXPECT_LT((r.estimate.S1.col(0) - S1_y1).cwiseAbs().maxCoeff(), 0.01) << r.report();
+  EXPECT_LT((r.estimate.ST.col(0) - S1_y1).cwiseAbs().maxCoeff(), 0.01) << r.report();
+  EXPECT_LT((r.estimate.S1.col(1) - S1_y2).cwiseAbs().maxCoeff(), 0.02) << r.report();
+  EXPECT_LT((r.estimate.ST.col(1) - ST_y2).cwiseAbs().maxCoeff(), 0.02) << r.report();
+}
+
+TEST(SobolIndices, AFailedRunStopsTheStudyWithTheFailedRowsListedAndNoIndices) {
+  // x1 > 3.1 fails: a few percent of the A, B and AB_i rows.
+  const auto r = sh::run_sobol(FailingIshigami(3.1), sh::ishigami_ranges(), options(256));
+  EXPECT_FALSE(r.valid);
+  EXPECT_FALSE(r.imputed);
+  ASSERT_FALSE(r.failed_runs.empty());
+  int expected = 0;
+  for (int run = 0; run < r.runs; ++run) expected += r.thetas(run, 0) > 3.1 ? 1 : 0;
+  EXPECT_EQ(static_cast<int>(r.failed_runs.size()), expected);
+  for (const auto& f : r.failed_runs) {
+    EXPECT_GT(f.theta(0), 3.1);
+    EXPECT_EQ(f.status.code, model::StatusCode::kDiverged);
+    EXPECT_EQ(f.run, [&] {
+      const int block = f.block == "A" ? 0 : f.block == "B" ? 1 : 2 + (f.block[3] - '1');
+      return block * r.N + f.design_row;
+    }());
+  }
+  EXPECT_EQ(r.estimate.S1.size(), 0);  // no silent numbers
+  const std::string report = r.report();
+  EXPECT_NE(report.find("INVALID"), std::string::npos) << report;
+  EXPECT_NE(report.find(std::to_string(expected) + " of " + std::to_string(r.runs) + " runs failed"),
+            std::string::npos)
+      << report;
+  EXPECT_NE(report.find("diverged"), std::string::npos) << report;
+}
+
+TEST(SobolIndices, ImputationIsOptInAndFlagged) {
+  auto o = options(1024);
+  o.failure_policy = sh::SobolFailurePolicy::kImputeMean;
+  const auto r = sh::run_sobol(FailingIshigami(3.1), sh::ishigami_ranges(), o);
+  EXPECT_TRUE(r.valid);
+  EXPECT_TRUE(r.imputed);
+  EXPECT_FALSE(r.failed_runs.empty());
+  EXPECT_NE(r.report().find("impute-mean"), std::string::npos);
+  // Failed outputs stay NaN in Z (imputation is applied only to the estimator's copy).
+  EXPECT_TRUE(std::isnan(r.Z(r.failed_runs.front().run, 0)));
+  EXPECT_TRUE(r.estimate.S1.allFinite());
+}
+
+TEST(SobolIndices, ResultsDoNotDependOnTheThreadCount) {
+  auto serial = options(512);
+  serial.ensemble.backend = Backend::kSerial;
+  auto threaded = options(512);
+  threaded.ensemble.threads = 2;
+  const auto a = sh::run_sobol(sh::IshigamiModel(), sh::ishigami_ranges(), serial);
+  const auto b = sh::run_sobol(sh::IshigamiModel(), sh::ishigami_ranges(), threaded);
+  EXPECT_EQ((a.Z - b.Z).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_EQ((a.estimate.S1 - b.estimate.S1).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_EQ((a.estimate.ST_low - b.estimate.ST_low).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_EQ((a.estimate.ST_high - b.estimate.ST_high).cwiseAbs().maxCoeff(), 0.0);
+}
+
+TEST(SobolIndices, EtaSpaceSamplingOfALogTransformIsLogUniform) {
+  // A log transform sampled in eta on [1, 100]: log10(theta) of the design is uniform on [0, 2],
+  // so half the A rows lie below 10.
+  auto ranges = sh::g_function_ranges(3);
+  ranges[0].lower = 1.0;
+  ranges[0].upper = 100.0;
+  ranges[0].nominal = 10.0;
+  ranges[0].space = sh::SamplingSpace::kEta;
+  ranges[0].transform.kind = sigmaheart::estimation::TransformKind::kLog;
+  ranges[0].transform.reference = 10.0;
+  const Eigen::MatrixXd U = sh::saltelli_design(3, 1024, sh::Scrambling::kLinearMatrixAndShift, 1);
+  const Eigen::MatrixXd T = sh::unit_to_theta(ranges, U);
+  int below = 0;
+  for (int j = 0; j < 1024; ++j) below += T(j, 0) < 10.0 ? 1 : 0;
+  EXPECT_EQ(below, 512);
+  EXPECT_GE(T.col(0).minCoeff(), 1.0);
+  EXPECT_LE(T.col(0).maxCoeff(), 100.0);
+}
+
+TEST(SobolIndices, InvalidOptionsAreRejectedBeforeAnyRun) {
+  auto o = options(1000);  // not a power of two
+  EXPECT_THROW(sh::run_sobol(sh::IshigamiModel(), sh::ishigami_ranges(), o), std::invalid_argument);
+  auto ranges = sh::ishigami_ranges();
+  ranges.pop_back();
+  EXPECT_THROW(sh::run_sobol(sh::IshigamiModel(), ranges, options(64)), std::invalid_argument);
+}

@@ -1,0 +1,139 @@
+#include "estimation/specificity/specificity.h"
+
+#include "estimation/sensitivity/design.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+
+namespace sp = sigmaheart::estimation::specificity;
+namespace model = sigmaheart::model;
+
+namespace {
+
+// Standard normal draws by Box-Muller from a seeded stream (independent of the standard
+// library's distribution algorithms).
+double normal(std::mt19937_64& rng) {
+  const double u1 = (static_cast<double>(rng() >> 11) + 0.5) / 9007199254740992.0;
+  const double u2 = (static_cast<double>(rng() >> 11) + 0.5) / 9007199254740992.0;
+  return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * std::numbers::pi * u2);
+}
+
+// A cohort of 12 volunteers and 12 patients; four parameters with the same distribution in both
+// groups except "sigma0" (index 2), whose mean is 3 standard deviations lower in patients.
+struct Cohort {
+  std::vector<sp::CohortCase> cases;
+  std::vector<sp::CaseCalibration> truth;
+};
+
+Cohort make_cohort() {
+  auto rng = sigmaheart::estimation::sensitivity::make_stream(42, 0);
+  Cohort c;
+  const Eigen::Vector4d centre(1.0, 10.0, 100.0, 0.5), spread(0.2, 2.0, 10.0, 0.1);
+  for (int i = 0; i < 24; ++i) {
+    const bool patient = i >= 12;
+    sp::CohortCase k;
+    k.id = (patient ? "hf" : "vol") + std::to_string(i % 12);
+    k.group = patient ? "heart-failure" : "volunteer";
+    k.source = k.id + ".csv";
+    sp::CaseCalibration cal;
+    cal.mean.resize(4);
+    for (int j = 0; j < 4; ++j) cal.mean(j) = centre(j) + spread(j) * normal(rng);
+    if (patient) cal.mean(2) -= 3.0 * spread(2);
+    cal.sd = 0.1 * spread;
+    c.cases.push_back(k);
+    c.truth.push_back(cal);
+  }
+  return c;
+}
+
+sp::SpecificityOptions options() {
+  sp::SpecificityOptions o;
+  o.parameters = {"tau", "R_p", "sigma0", "k_s"};
+  return o;
+}
+
+}  // namespace
+
+TEST(Specificity, TheOnlyParameterThatDiffersBetweenGroupsIsRankedFirst) {
+  const Cohort cohort = make_cohort();
+  int calls = 0;
+  const auto r = sp::run_specificity(
+      cohort.cases,
+      [&](const sp::CohortCase& k) {
+        ++calls;
+        for (size_t i = 0; i < cohort.cases.size(); ++i) {
+          if (cohort.cases[i].id == k.id) return cohort.truth[i];
+        }
+        throw std::runtime_error("unknown case");
+      },
+      options());
+  EXPECT_EQ(calls, 24);
+  EXPECT_EQ(r.group_a, "volunteer");
+  EXPECT_EQ(r.group_b, "heart-failure");
+  ASSERT_EQ(r.ranking.size(), 4u);
+  EXPECT_EQ(r.ranking.front(), 2) << r.report();
+  const auto& s = r.parameters[2];
+  EXPECT_EQ(s.name, "sigma0");
+  EXPECT_GT(s.mann_whitney.auc, 0.9) << r.report();
+  EXPECT_LT(s.welch.p_value, 1e-4) << r.report();
+  EXPECT_GT(s.effect.hedges_g, 1.5);
+  // The others do not separate at the 1 % level.
+  for (int j : {0, 1, 3}) EXPECT_GT(r.parameters[static_cast<size_t>(j)].welch.p_value, 0.01) << j;
+  ASSERT_TRUE(r.classifier.valid);
+  EXPECT_GE(r.classifier.accuracy, 0.8) << r.report();
+  EXPECT_EQ(r.classifier.total, 24);
+  EXPECT_NEAR(s.posterior_sd_a, 1.0, 1e-12);
+}
+
+TEST(Specificity, FailedCalibrationsAreDroppedAndListed) {
+  const Cohort cohort = make_cohort();
+  const auto r = sp::run_specificity(
+      cohort.cases,
+      [&](const sp::CohortCase& k) {
+        if (k.id == "vol3") throw std::runtime_error("observation file unreadable");
+        if (k.id == "hf5") {
+          sp::CaseCalibration bad;
+          bad.status = model::Status::Error(model::StatusCode::kDiverged, "all sigma points failed");
+          return bad;
+        }
+        for (size_t i = 0; i < cohort.cases.size(); ++i) {
+          if (cohort.cases[i].id == k.id) return cohort.truth[i];
+        }
+        throw std::runtime_error("unknown case");
+      },
+      options());
+  EXPECT_EQ(r.cases.size(), 22u);
+  ASSERT_EQ(r.failed_cases.size(), 2u);
+  EXPECT_EQ(r.failed_cases[0], "vol3");
+  EXPECT_EQ(r.failed_cases[1], "hf5");
+  const std::string report = r.report();
+  EXPECT_NE(report.find("observation file unreadable"), std::string::npos) << report;
+  EXPECT_NE(report.find("all sigma points failed"), std::string::npos) << report;
+  EXPECT_EQ(r.ranking.front(), 2);
+}
+
+TEST(Specificity, LdaSeparatesTwoCleanClustersPerfectly) {
+  // Two well-separated clusters in 2D: leave-one-out accuracy 1.
+  Eigen::MatrixXd X(8, 2);
+  X << 0, 0, 0.1, 0.2, -0.1, 0.1, 0.2, -0.1,  //
+      5, 5, 5.1, 4.9, 4.8, 5.2, 5.2, 5.0;
+  const std::vector<int> label = {0, 0, 0, 0, 1, 1, 1, 1};
+  const auto c = sp::loo_lda(X, label, 0.2);
+  ASSERT_TRUE(c.valid);
+  EXPECT_EQ(c.correct, 8);
+  EXPECT_DOUBLE_EQ(c.accuracy, 1.0);
+}
+
+TEST(Specificity, TooSmallGroupsAreRejectedWithAMessage) {
+  std::vector<sp::CaseEstimate> cases = {{"a", "g1", Eigen::Vector2d(1, 2), Eigen::Vector2d(0.1, 0.1)},
+                                         {"b", "g2", Eigen::Vector2d(1, 2), Eigen::Vector2d(0.1, 0.1)},
+                                         {"c", "g2", Eigen::Vector2d(1, 3), Eigen::Vector2d(0.1, 0.1)}};
+  sp::SpecificityOptions o;
+  o.parameters = {"p", "q"};
+  EXPECT_THROW(sp::compare_groups(cases, o), std::invalid_argument);
+  o.parameters = {};
+  EXPECT_FALSE(o.validate().empty());
+}
