@@ -66,6 +66,7 @@ int run_cli(int argc, const char* const* argv, std::ostream& out, std::ostream& 
   register_sensitivity(app, ctx);
   register_specificity(app, ctx);
   register_personalize(app, ctx);
+  register_benchmark(app, ctx);
 
   try {
     app.parse(argc, argv);

@@ -85,6 +85,8 @@ const std::vector<ConfigSection>& config_sections() { return sections_storage();
 
 std::string expand_override_key(const std::string& key) {
   const auto dot = key.find('.');
+  // The scalar top-level keys are themselves; any other bare key is a parameter.
+  if (key == "name" || key == "description" || key == "seed") return key;
   if (dot == std::string::npos) return "simulator.parameters." + key;
   const std::string head = key.substr(0, dot);
   if (head == "numerics" || head == "parameters") return "simulator." + key;

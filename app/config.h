@@ -67,7 +67,8 @@ struct Config {
 SimulatorSection parse_simulator_section(const ConfigNode& node);
 
 // Reads a config, applies `--set key=value` overrides and parses the common sections.
-// Override keys: a bare parameter name ("sigma0"), "numerics.<key>", "parameters.<name>",
+// Override keys: "name", "description", "seed"; a bare parameter name ("sigma0"),
+// "numerics.<key>", "parameters.<name>",
 // or a full dotted path from the top ("simulator.model", "calibration.max_iterations").
 Config load_config(const std::filesystem::path& path, const std::vector<std::string>& overrides = {});
 // The same from text (tests, configs generated in memory).

@@ -227,3 +227,4 @@ def plot_file(path: str, out_dir: str | None = None) -> List[str]:
         return PLOTTERS[kind](f, out_dir, stem)
 import sigmaplot_studies  # noqa: E402,F401  (registers the "sensitivity" and "specificity" plots)
 import sigmaplot_regional  # noqa: E402,F401  (registers the "personalize" plots)
+import sigmaplot_calibrate  # noqa: E402,F401  (registers the "calibrate" plots)

@@ -21,7 +21,6 @@
 
 namespace sigmaheart::app {
 
-void register_benchmark(CLI::App& app, CommandContext& ctx);
 
 namespace {
 

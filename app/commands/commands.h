@@ -33,6 +33,7 @@ void register_synthesize(CLI::App& app, CommandContext& ctx);
 void register_sensitivity(CLI::App& app, CommandContext& ctx);
 void register_specificity(CLI::App& app, CommandContext& ctx);
 void register_personalize(CLI::App& app, CommandContext& ctx);
+void register_benchmark(CLI::App& app, CommandContext& ctx);  // the 3D Land et al. 2015 benchmark
 
 // Helpers shared by the commands ---------------------------------------------------------------
 

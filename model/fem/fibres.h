@@ -4,7 +4,7 @@
 // e_c (counter-clockwise about +z seen from the base), longitudinal e_l (apex -> base, tangent to
 // the wall) and transmural e_t (endo -> epi) directions, the fibre is
 //   f = cos(alpha) e_c + sin(alpha) e_l,  alpha = alpha_endo + t (alpha_epi - alpha_endo),
-// the sheet-normal n = e_t and the sheet s = n x f (Land et al. 2015, eq. 2.7, uses +90 endo to
+// the sheet-normal n = e_t and the sheet s = n x f (Land et al. 2015, problem 3, uses +90 endo to
 // -90 epi; the thesis default is +70 endo to -70 epi).
 #pragma once
 

@@ -2,7 +2,7 @@
 //
 // The incompressibility constraint is not part of these laws: the mechanics adds the mixed
 // pressure term -p (J - 1) (and -p^2 / (2 kappa) for a finite bulk modulus), so W here is the
-// deviatoric/anisotropic part only (Land et al. 2015, eq. 2.1-2.3 for Guccione).
+// deviatoric/anisotropic part only (Land et al. 2015, section 2, for Guccione).
 //
 // Fourth-order tensors are 9x9 matrices acting on full (not Voigt) vectors of 3x3 tensors with
 // row-major index 3*I + J, so vec(S) = D vec(E) holds for the linearisation dS = D : dE.
@@ -32,7 +32,7 @@ class Material {
   virtual std::string name() const = 0;
 };
 
-// Guccione et al. 1991 transversely isotropic law, as in Land et al. 2015 (eq. 2.2-2.3):
+// Guccione et al. 1991 transversely isotropic law, as in Land et al. 2015 (section 2):
 //   W = C/2 (exp(Q) - 1),
 //   Q = bf E_ff^2 + bt (E_ss^2 + E_nn^2 + E_sn^2 + E_ns^2) + bfs (E_fs^2 + E_sf^2 + E_fn^2 + E_nf^2),
 // with E expressed in the local frame (f, s, n).

@@ -5,11 +5,11 @@
 // vertices) on a quadratic mesh; on a linear mesh P1-P1 is available but locks/is unstable for
 // incompressible laws and is only meant for tests. The stored energy is
 //   Pi(u, p) = int W(E) dV - int p (J - 1) dV - int p^2 / (2 kappa) dV + active + external,
-// kappa = bulk_modulus (infinite: exactly incompressible, Land et al. 2015 eq. 2.4).
+// kappa = bulk_modulus (infinite: exactly incompressible, as in Land et al. 2015).
 // Active stress (Land et al. 2015, problem 3): S_act = Ta f0 (x) f0, Ta in Pa, per element scale.
 // Follower pressure on tagged surfaces: traction -P n da in the current configuration; its
 // tangent is the non-symmetric load stiffness (e.g. Bonet & Wood, Nonlinear Continuum Mechanics,
-// 2nd ed., eq. 8.37).
+// 2nd ed., chapter 8; checked against finite differences in the tests).
 // Units: SI (m, Pa); the library is unit-consistent, any consistent set works.
 #pragma once
 

@@ -69,11 +69,11 @@ void extract_boundary_faces(Mesh& mesh);
 Mesh make_quadratic(const Mesh& linear);
 
 // ---------------------------------------------------------------------------------------------
-// Truncated prolate ellipsoid (Land et al. 2015, section 2b, eq. 2.6):
-//   x = r_s(t) sin(mu) cos(v), y = r_s(t) sin(mu) sin(v), z = r_l(t) cos(mu),
-// r_s, r_l linear in the transmural coordinate t in [0, 1] (0 endocardium, 1 epicardium),
-// mu in [0, mu_base(t)] from the apex (mu = pi here written as the angle from the -z axis) to the
-// base plane z = z_base. The long axis is z, apex at -z, base at +z.
+// Truncated prolate ellipsoid (Land et al. 2015, problems 2 and 3):
+//   x = r_s(t) sin(theta) cos(v), y = r_s(t) sin(theta) sin(v), z = -r_l(t) cos(theta),
+// r_s, r_l linear in the transmural coordinate t in [0, 1] (0 endocardium, 1 epicardium), theta
+// the angle from the apex (0 at the apex on -z, theta_base(t) where layer t meets the base plane
+// z = z_base), v the angle about the long axis z. (The paper writes u = theta - pi.)
 struct EllipsoidGeometry {
   double r_short_endo = 7e-3;   // [m] Land 2015
   double r_long_endo = 17e-3;   // [m]
@@ -81,7 +81,7 @@ struct EllipsoidGeometry {
   double r_long_epi = 20e-3;    // [m]
   double z_base = 5e-3;         // [m] base plane
 
-  // Human-sized variant (MODELS.md s.4): endo 25/45 mm, epi 35/55 mm, base plane +5 mm... scaled.
+  // Human-sized variant (MODELS.md s.4): endo 25/45 mm, epi 35/55 mm, base plane 5 mm x 45/17.
   static EllipsoidGeometry human();
   std::string validate() const;
 

@@ -191,30 +191,13 @@ void reduced_residual(const StepContext& c, const Eigen::VectorXd& u, Eigen::Vec
     }
   }
 
-  const double Pd = (c.Pd_rhs + Par / m.circ.R_p) / c.Pd_den;
-  const double dPd_dPar = 1.0 / (m.circ.R_p * c.Pd_den);
-  const circ::ValveFlow q = circ::valve_flow(Pv, Par, c.P_at, m.circ);
-  const circ::WindkesselResidual w =
-      circ::windkessel_residual(Par, Pd, c.xo(kPar), c.xo(kPd), q.q_ar, h, m.circ);
-  const double R = m.R0 + y;
-  const double V = 4.0 / 3.0 * std::numbers::pi * R * R * R;
-  const double dV_dy = 4.0 * std::numbers::pi * R * R;
-
   // Balance of the shell (inertia of the whole wall, mean stress Sigma_bar).
   r(0) = (m.rho * m.d0 * (v - c.xo(kV)) / h + k1 * s * Sbar - Pv * Cg) / kPref;
   J.row(0) = (k1 * s / kPref) * dSbar;
   J(0, 0) = ((k1 * Sbar / m.R0 - Pv * dCg_dy) * h + m.rho * m.d0 / h + k1 * s * dSbar(0)) / kPref;
   J(0, 1) = -Cg / kPref;
-  // Cavity volume balance.
-  const double fv = h / kVref;
-  r(1) = (m.circ.C_cav * (Pv - c.xo(kPv)) / h + q.q + (V - c.V_old) / h) * fv;
-  J(1, 0) = dV_dy * fv;
-  J(1, 1) = (m.circ.C_cav / h + q.dq_dPv) * fv;
-  J(1, 2) = q.dq_dPar * fv;
-  // Proximal Windkessel (the distal one solved exactly for P_d).
-  r(2) = w.r_ar * fv;
-  J(2, 1) = -q.dqar_dPv * fv;
-  J(2, 2) = (w.dar_dPar + w.dar_dPd * dPd_dPar - q.dqar_dPar) * fv;
+  // Cavity volume balance and proximal Windkessel.
+  const double Pd = shell::circulation_rows(m, c, y, Pv, Par, r, J);
 
   if (full != nullptr) {
     (*full)(kY) = y;
@@ -629,27 +612,17 @@ Eigen::VectorXd RegionalVentricle::sample(const State& state,
                                           const Eigen::Ref<const Eigen::VectorXd>& theta) const {
   const Layout l{n_};
   const Model m = unpack_model(theta, global_, sigma0_, td_, stiff_, scar_, shares_);
-  const auto& x = state.x;
-  const double P_at = m.atrial(state.time);
-  const auto q = circ::valve_flow(x(kPv), x(kPar), P_at, m.circ);
-  const auto last = x(l.size()) > 1.0 ? circ::ValveRegime::kEjection : circ::ValveRegime::kFilling;
-  const double V = cavity_volume(m, x(kY));
+  const double V = cavity_volume(m, state.x(kY));
   std::vector<double> c;
-  relative_stretches(m, l, x, c);
+  relative_stretches(m, l, state.x, c);
   Eigen::VectorXd out(8 + n_);
-  out.head(8) << V, x(kPv), x(kPar), P_at, q.q_ar, q.q_at,
-      static_cast<double>(circ::phase(q.regime, last)), x(kPd);
+  out.head(8) = shell::circulation_sample(m, state);
   for (int p = 0; p < n_; ++p) out(8 + p) = V * m.patch[static_cast<size_t>(p)].w * c[static_cast<size_t>(p)];
   return out;
 }
 
 RunResult RegionalVentricle::run(const Eigen::Ref<const Eigen::VectorXd>& theta) {
-  if (Status st = check_theta(theta); !st.ok()) {
-    RunResult result;
-    result.trajectory.channels = channels();
-    result.status = st;
-    return result;
-  }
+  if (Status st = check_theta(theta); !st.ok()) return shell::failed_run(channels(), st);
   return shell::run_periodic(
       unpack_model(theta, global_, sigma0_, td_, stiff_, scar_, shares_), options_.numerics,
       channels(), initial_state(theta),

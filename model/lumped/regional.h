@@ -23,7 +23,8 @@
 // (measured with the sphere's defaults: shares 0.021-0.132 around 0.059). With the default 1e5 Pa
 // the LBBB shares stay within 0.046-0.072. K_patch = 0 is the pure MultiPatch of Walmsley et al.
 //
-// Time discretisation: the sphere's (sphere.cpp): backward Euler on every equation, y, P_d and each
+// Time discretisation: the sphere's (sphere.cpp; grid, step cutting and run loop shared in
+// shell.h): backward Euler on every equation, y, P_d and each
 // patch's (k_c, tau_c) eliminated exactly, Newton on (v, P_v, P_ar, c_1..c_{N-1}, e_c,1..N), the
 // same row scaling and stopping test, on the sphere's beat-local time grid, with
 // dC_p/dt = 2 s (dy/dt / R0) c_p + s^2 (c_p - c_p^n)/h. One patch agrees with LumpedSphere to

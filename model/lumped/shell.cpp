@@ -112,6 +112,25 @@ std::vector<Channel> circulation_channels() {
   };
 }
 
+Eigen::Matrix<double, 8, 1> circulation_sample(const Shell& m, const State& state) {
+  const auto& x = state.x;
+  const double P_at = m.atrial(state.time);
+  const auto q = circulation::valve_flow(x(kPv), x(kPar), P_at, m.circ);
+  const auto last = x(x.size() - 1) > 1.0 ? circulation::ValveRegime::kEjection
+                                          : circulation::ValveRegime::kFilling;
+  Eigen::Matrix<double, 8, 1> out;
+  out << cavity_volume(m, x(kY)), x(kPv), x(kPar), P_at, q.q_ar, q.q_at,
+      static_cast<double>(circulation::phase(q.regime, last)), x(kPd);
+  return out;
+}
+
+RunResult failed_run(std::vector<Channel> channels, Status status) {
+  RunResult result;
+  result.trajectory.channels = std::move(channels);
+  result.status = std::move(status);
+  return result;
+}
+
 double fill_relaxed_state(const Shell& m, Eigen::Ref<Eigen::VectorXd> x) {
   const double P0 = m.atrial(0.0);
   const double y = static_radius_offset(m, P0);

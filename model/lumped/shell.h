@@ -26,6 +26,9 @@ inline constexpr double kPref = 1e3;   // [Pa]
 inline constexpr double kVref = 1e-6;  // [m^3] (1 mL)
 inline constexpr int kMaxCuts = 8;     // step halvings before giving up (dt / 256)
 
+// Common state entries 0..4: y, dy_dt, P_v, P_ar, P_d.
+enum StateEntry : int { kY, kV, kPv, kPar, kPd };
+
 // The global (whole-shell) parameters, in this order; the sphere adds sigma0, the regional model
 // K_patch and per-patch parameters. Names as in LumpedSphere::default_parameters().
 enum Global : int {
@@ -78,11 +81,47 @@ double static_radius_offset(const Shell& m, double P);
 // multiple of the period.
 double next_time(double t, double t_end, double dt, double period);
 
-// Common state entries 0..4: y, dy_dt, P_v, P_ar, P_d.
-enum StateEntry : int { kY, kV, kPv, kPar, kPd };
-std::vector<Channel> state_head();        // the five entries above, with units
+// Rows 1 and 2 of both models' reduced Newton systems, scaled by h/kVref: the cavity volume balance
+// and the proximal Windkessel (the distal one is solved exactly for P_d, which is returned), with
+// their derivatives in u = (v, P_v, P_ar, ...) in columns 0..2 of J (dy/dv = h). `c` is the step
+// context: xo (the state at t^n), h, P_at, V_old, Pd_den = C_d/h + 1/R_p + 1/R_d and
+// Pd_rhs = C_d/h P_d^n + P_sv/R_d.
+template <class Context, class Res, class Jac>
+double circulation_rows(const Shell& m, const Context& c, double y, double Pv, double Par, Res& r,
+                        Jac& J) {
+  namespace circ = circulation;
+  const double h = c.h;
+  const double Pd = (c.Pd_rhs + Par / m.circ.R_p) / c.Pd_den;
+  const double dPd_dPar = 1.0 / (m.circ.R_p * c.Pd_den);
+  const circ::ValveFlow q = circ::valve_flow(Pv, Par, c.P_at, m.circ);
+  const circ::WindkesselResidual w =
+      circ::windkessel_residual(Par, Pd, c.xo(kPar), c.xo(kPd), q.q_ar, h, m.circ);
+  const double R = m.R0 + y;
+  const double V = 4.0 / 3.0 * std::numbers::pi * R * R * R;
+  const double dV_dy = 4.0 * std::numbers::pi * R * R;
+  const double fv = h / kVref;
+  // Cavity volume balance.
+  r(1) = (m.circ.C_cav * (Pv - c.xo(kPv)) / h + q.q + (V - c.V_old) / h) * fv;
+  J(1, 0) = dV_dy * fv;  // (dV/dy) (dy/dv) / h = dV/dy
+  J(1, 1) = (m.circ.C_cav / h + q.dq_dPv) * fv;
+  J(1, 2) = q.dq_dPar * fv;
+  // Proximal Windkessel.
+  r(2) = w.r_ar * fv;
+  J(2, 0) = 0.0;
+  J(2, 1) = -q.dqar_dPv * fv;
+  J(2, 2) = (w.dar_dPar + w.dar_dPd * dPd_dPar - q.dqar_dPar) * fv;
+  return Pd;
+}
+
+std::vector<Channel> state_head();        // the StateEntry entries, with units
 Channel last_open_valve_entry();          // the diagnostic flag that ends every state
 std::vector<Channel> circulation_channels();  // V_lv, P_lv, P_ar, P_at, q_ar, q_at, phase, P_d
+
+// The values of circulation_channels() for a state (its last entry is last_open_valve).
+Eigen::Matrix<double, 8, 1> circulation_sample(const Shell& m, const State& state);
+
+// The result of a run() whose theta failed the checks.
+RunResult failed_run(std::vector<Channel> channels, Status status);
 
 // Fills entries y, P_v, P_ar, P_d of a relaxed initial state (static passive equilibrium with the
 // atrial pressure at t = 0, arteries at a typical diastolic pressure; the periodic loop settles

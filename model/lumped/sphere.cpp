@@ -113,15 +113,6 @@ void reduced_residual(const StepContext& c, const Vec4& u, Vec4& r, Mat4& J, Vec
   const double Sigma = Sp + Sv + a.stress;
   const double dSigma_dy = dSp_dC * dC_dy + dSv_dy + a.dstress_de * de_dy;
 
-  const double Pd = (c.Pd_rhs + Par / m.circ.R_p) / c.Pd_den;
-  const double dPd_dPar = 1.0 / (m.circ.R_p * c.Pd_den);
-  const circ::ValveFlow q = circ::valve_flow(Pv, Par, c.P_at, m.circ);
-  const circ::WindkesselResidual w =
-      circ::windkessel_residual(Par, Pd, c.xo(kPar), c.xo(kPd), q.q_ar, h, m.circ);
-  const double R = m.R0 + y;
-  const double V = 4.0 / 3.0 * std::numbers::pi * R * R * R;
-  const double dV_dy = 4.0 * std::numbers::pi * R * R;
-
   // Balance of the shell.
   const double k1 = m.d0 / m.R0;
   r(0) = (m.rho * m.d0 * (v - c.xo(kV)) / h + k1 * s * Sigma - Pv * C) / kPref;
@@ -130,18 +121,9 @@ void reduced_residual(const StepContext& c, const Vec4& u, Vec4& r, Mat4& J, Vec
   J(0, 1) = -C / kPref;
   J(0, 2) = 0.0;
   J(0, 3) = k1 * s * a.dstress_dec / kPref;
-  // Cavity volume balance.
-  const double fv = h / kVref;
-  r(1) = (m.circ.C_cav * (Pv - c.xo(kPv)) / h + q.q + (V - c.V_old) / h) * fv;
-  J(1, 0) = dV_dy * fv;  // (dV/dy) (dy/dv) / h = dV/dy
-  J(1, 1) = (m.circ.C_cav / h + q.dq_dPv) * fv;
-  J(1, 2) = q.dq_dPar * fv;
+  // Cavity volume balance and proximal Windkessel.
+  const double Pd = shell::circulation_rows(m, c, y, Pv, Par, r, J);
   J(1, 3) = 0.0;
-  // Proximal Windkessel (the distal one is solved exactly for P_d).
-  r(2) = w.r_ar * fv;
-  J(2, 0) = 0.0;
-  J(2, 1) = -q.dqar_dPv * fv;
-  J(2, 2) = (w.dar_dPar + w.dar_dPd * dPd_dPar - q.dqar_dPar) * fv;
   J(2, 3) = 0.0;
   // Contractile-element balance (k_c, tau_c already eliminated).
   r(3) = a.residual / kPref;
@@ -328,26 +310,17 @@ Eigen::VectorXd LumpedSphere::sample(const State& state,
   const double s = 1.0 + x(kY) / m.R0;
   const double C = s * s;
   const double e = 0.5 * (C - 1.0);
-  const double P_at = m.atrial(state.time);
-  const auto q = circ::valve_flow(x(kPv), x(kPar), P_at, m.circ);
-  const auto last = x(kLastOpen) > 1.0 ? circ::ValveRegime::kEjection : circ::ValveRegime::kFilling;
   const double Cdot = 2.0 * s * x(kV) / m.R0;
   const double iC2 = 1.0 / (C * C);
   const double Svis = m.eta * Cdot * (1.0 + 2.0 * iC2 * iC2 * iC2);
   Eigen::VectorXd out(14);
-  out << cavity_volume(m, x(kY)), x(kPv), x(kPar), P_at, q.q_ar, q.q_at,
-      static_cast<double>(circ::phase(q.regime, last)), x(kPd), e, x(kEc), x(kKc), x(kTc),
+  out << shell::circulation_sample(m, state), e, x(kEc), x(kKc), x(kTc),
       bcs::active_stress(e, x(kEc), m.act.Es), 0.5 * Svis * Cdot;
   return out;
 }
 
 RunResult LumpedSphere::run(const Eigen::Ref<const Eigen::VectorXd>& theta) {
-  if (Status st = check_theta(theta); !st.ok()) {
-    RunResult result;
-    result.trajectory.channels = channels();
-    result.status = st;
-    return result;
-  }
+  if (Status st = check_theta(theta); !st.ok()) return shell::failed_run(channels(), st);
   return shell::run_periodic(
       unpack(theta, index_), options_, channels(), initial_state(theta),
       [&](State& s, double t1, int* its, int* cuts) { return step_to(s, theta, t1, its, cuts); },

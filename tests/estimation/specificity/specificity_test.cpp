@@ -137,3 +137,39 @@ TEST(Specificity, TooSmallGroupsAreRejectedWithAMessage) {
   o.parameters = {};
   EXPECT_FALSE(o.validate().empty());
 }
+
+TEST(Specificity, CasesCalibratedInParallelGiveTheSameResult) {
+  const Cohort cohort = make_cohort();
+  auto lookup = [&](const sp::CohortCase& k) {
+    for (size_t i = 0; i < cohort.cases.size(); ++i) {
+      if (cohort.cases[i].id == k.id) return cohort.truth[i];
+    }
+    throw std::runtime_error("unknown case");
+  };
+  sp::SpecificityOptions serial = options(), parallel = options();
+  parallel.case_threads = 2;
+  int reported = 0;
+  parallel.progress = [&](int done, int total, const std::string&) {
+    EXPECT_EQ(total, 24);
+    reported = std::max(reported, done);
+  };
+  const auto a = sp::run_specificity(cohort.cases, lookup, serial);
+  const auto b = sp::run_specificity(cohort.cases, lookup, parallel);
+  EXPECT_EQ(reported, 24);
+  ASSERT_EQ(a.cases.size(), b.cases.size());
+  for (size_t i = 0; i < a.cases.size(); ++i) EXPECT_EQ(a.cases[i].id, b.cases[i].id);  // cohort order
+  EXPECT_EQ(a.ranking, b.ranking);
+  EXPECT_EQ(a.parameters[2].welch.p_value, b.parameters[2].welch.p_value);
+  EXPECT_EQ(a.classifier.correct, b.classifier.correct);
+}
+
+TEST(Specificity, LeaveOneOutWorksWithTwoCasesInAGroup) {
+  // 5 volunteers around 0, 2 patients around 5 on the first feature: every held-out case is
+  // classified from a training set that keeps one case of its group.
+  Eigen::MatrixXd X(7, 2);
+  X << 0.1, 1.0, -0.2, 0.8, 0.0, 1.1, 0.3, 0.9, -0.1, 1.2, 5.0, 1.0, 5.3, 0.9;
+  const auto c = sp::loo_lda(X, {0, 0, 0, 0, 0, 1, 1}, 0.2);
+  ASSERT_TRUE(c.valid) << c.message;
+  EXPECT_EQ(c.correct, 7);
+  EXPECT_FALSE(sp::loo_lda(X.topRows(6), {0, 0, 0, 0, 0, 1}, 0.2).valid);
+}
