@@ -15,19 +15,6 @@ namespace sigmaheart::app {
 
 namespace {
 
-// Splits "30 %" / "2e4 Pa" / "0.02" into number and unit text.
-std::pair<double, std::string> number_and_unit(const ConfigNode& node) {
-  const std::string text = node.as<std::string>();
-  std::istringstream in(text);
-  double value = 0.0;
-  if (!(in >> value)) node.fail("expected a number with a unit, got '" + text + "'");
-  std::string unit;
-  std::getline(in, unit);
-  const auto b = unit.find_first_not_of(" \t");
-  unit = b == std::string::npos ? std::string{} : unit.substr(b);
-  return {value, unit};
-}
-
 observers::Noise parse_noise_node(const ConfigNode& node) {
   try {
     return observers::parse_noise(node.as<std::string>());
@@ -170,72 +157,9 @@ estimation::CalibrationParameter parse_estimated(const Config& config, const std
     if (!guess.empty()) msg += " (did you mean '" + guess + "'?)";
     throw InputError(node.location(), msg);
   }
-  const model::Parameter& p = space[*index];
-  unit = p.unit;
+  unit = space[*index].unit;
   node.check_keys({"prior", "spread", "transform", "bounds"});
-
-  estimation::CalibrationParameter c;
-  c.name = name;
-  c.prior_mean = node.optional_quantity("prior", p.unit, p.nominal);
-  if (c.prior_mean < p.lower || c.prior_mean > p.upper) {
-    std::ostringstream s;
-    s << "prior of '" << name << "' = " << c.prior_mean << " " << p.unit
-      << " lies outside the parameter's bounds [" << p.lower << ", " << p.upper << "]";
-    node["prior"].fail(s.str());
-  }
-
-  const ConfigNode spread = node.require_child("spread");
-  const auto [value, spread_unit] = number_and_unit(spread);
-  if (!(value > 0)) spread.fail("expected a positive spread");
-  if (spread_unit == "%") {
-    c.spread_kind = estimation::SpreadKind::kRelative;
-    c.prior_spread = value / 100.0;
-  } else if (spread_unit == "eta") {
-    c.spread_kind = estimation::SpreadKind::kEta;
-    c.prior_spread = value;
-  } else if (spread_unit.empty()) {
-    spread.fail("write the spread as a percentage of the prior ('30 %'), in the parameter's unit "
-                "('2e4 " + p.unit + "'), or in the transformed coordinate ('0.3 eta')");
-  } else {
-    c.spread_kind = estimation::SpreadKind::kAbsolute;
-    if (spread_unit == p.unit) {
-      c.prior_spread = value;
-    } else {
-      try {
-        c.prior_spread = model::units::convert(value, spread_unit, p.unit);
-      } catch (const std::invalid_argument& e) {
-        spread.fail(std::string("spread: ") + e.what() + " (parameter unit: " + p.unit + ")");
-      }
-    }
-  }
-
-  const std::string kind_text =
-      node.has("transform") ? node["transform"].as_choice({"identity", "log", "logit"}) : "log";
-  c.transform.kind = *estimation::parse_transform_kind(kind_text);
-  if (c.transform.kind == estimation::TransformKind::kLog) {
-    if (!(c.prior_mean > 0)) node.fail("a log transform needs a positive prior");
-    c.transform.reference = c.prior_mean;
-  } else if (c.transform.kind == estimation::TransformKind::kLogit) {
-    std::vector<double> b = {p.lower, p.upper};
-    if (node.has("bounds")) {
-      b = node["bounds"].as<std::vector<double>>();
-      if (b.size() != 2) node["bounds"].fail("expected [lower, upper]");
-    }
-    if (!std::isfinite(b[0]) || !std::isfinite(b[1]) || b[0] >= b[1]) {
-      node.fail("a logit transform needs finite bounds lower < upper (give 'bounds: [lo, hi]')");
-    }
-    if (b[0] < p.lower || b[1] > p.upper) {
-      node["bounds"].fail("bounds must lie inside the parameter's own bounds");
-    }
-    c.transform.lower = b[0];
-    c.transform.upper = b[1];
-    if (!(c.prior_mean > b[0] && c.prior_mean < b[1])) {
-      node.fail("the prior must lie strictly inside the logit bounds");
-    }
-  }
-  const std::string problem = c.validate();
-  if (!problem.empty()) node.fail(problem);
-  return c;
+  return parse_estimated_parameter(space[*index], node);
 }
 
 estimation::UtOptions parse_ut_options(const ConfigNode& node) {
@@ -308,6 +232,85 @@ CalibrationProblem parse_calibration_problem(const Config& config,
   const std::string problem = out.options.validate(static_cast<int>(out.parameters.size()));
   if (!problem.empty()) cal.fail(problem);
   return out;
+}
+
+
+estimation::CalibrationParameter parse_estimated_parameter(const model::Parameter& p,
+                                                           const ConfigNode& node) {
+  estimation::CalibrationParameter c;
+  c.name = p.name;
+  c.prior_mean = node.optional_quantity("prior", p.unit, p.nominal);
+  if (c.prior_mean < p.lower || c.prior_mean > p.upper) {
+    std::ostringstream s;
+    s << "prior of '" << p.name << "' = " << c.prior_mean << " " << p.unit
+      << " lies outside the parameter's bounds [" << p.lower << ", " << p.upper << "]";
+    node["prior"].fail(s.str());
+  }
+
+  const ConfigNode spread = node.require_child("spread");
+  const auto [value, spread_unit] = number_and_unit(spread);
+  if (!(value > 0)) spread.fail("expected a positive spread");
+  if (spread_unit == "%") {
+    c.spread_kind = estimation::SpreadKind::kRelative;
+    c.prior_spread = value / 100.0;
+  } else if (spread_unit == "eta") {
+    c.spread_kind = estimation::SpreadKind::kEta;
+    c.prior_spread = value;
+  } else if (spread_unit.empty()) {
+    spread.fail("write the spread as a percentage of the prior ('30 %'), in the parameter's unit "
+                "('2e4 " + p.unit + "'), or in the transformed coordinate ('0.3 eta')");
+  } else {
+    c.spread_kind = estimation::SpreadKind::kAbsolute;
+    if (spread_unit == p.unit) {
+      c.prior_spread = value;
+    } else {
+      try {
+        c.prior_spread = model::units::convert(value, spread_unit, p.unit);
+      } catch (const std::invalid_argument& e) {
+        spread.fail(std::string("spread: ") + e.what() + " (parameter unit: " + p.unit + ")");
+      }
+    }
+  }
+
+  const std::string kind_text =
+      node.has("transform") ? node["transform"].as_choice({"identity", "log", "logit"}) : "log";
+  c.transform.kind = *estimation::parse_transform_kind(kind_text);
+  if (c.transform.kind == estimation::TransformKind::kLog) {
+    if (!(c.prior_mean > 0)) node.fail("a log transform needs a positive prior");
+    c.transform.reference = c.prior_mean;
+  } else if (c.transform.kind == estimation::TransformKind::kLogit) {
+    std::vector<double> b = {p.lower, p.upper};
+    if (node.has("bounds")) {
+      b = node["bounds"].as<std::vector<double>>();
+      if (b.size() != 2) node["bounds"].fail("expected [lower, upper]");
+    }
+    if (!std::isfinite(b[0]) || !std::isfinite(b[1]) || b[0] >= b[1]) {
+      node.fail("a logit transform needs finite bounds lower < upper (give 'bounds: [lo, hi]')");
+    }
+    if (b[0] < p.lower || b[1] > p.upper) {
+      node["bounds"].fail("bounds must lie inside the parameter's own bounds");
+    }
+    c.transform.lower = b[0];
+    c.transform.upper = b[1];
+    if (!(c.prior_mean > b[0] && c.prior_mean < b[1])) {
+      node.fail("the prior must lie strictly inside the logit bounds");
+    }
+  }
+  const std::string problem = c.validate();
+  if (!problem.empty()) node.fail(problem);
+  return c;
+}
+
+std::pair<double, std::string> number_and_unit(const ConfigNode& node) {
+  const std::string text = node.as<std::string>();
+  std::istringstream in(text);
+  double value = 0.0;
+  if (!(in >> value)) node.fail("expected a number with a unit, got '" + text + "'");
+  std::string unit;
+  std::getline(in, unit);
+  const auto b = unit.find_first_not_of(" \t");
+  unit = b == std::string::npos ? std::string{} : unit.substr(b);
+  return {value, unit};
 }
 
 void register_calibration_sections() {

@@ -53,6 +53,17 @@ struct CalibrationProblem {
 CalibrationProblem parse_calibration_problem(const Config& config,
                                              const std::filesystem::path& observation_file = {});
 
+// One estimated parameter from {prior, spread, transform, bounds} with the conventions above:
+// prior defaults to the parameter's nominal value; spread "30 %" (relative), "2e4 Pa" (absolute,
+// any unit of the parameter's dimension) or "0.3 eta"; transform log (default), logit (bounds
+// default to the parameter's own) or identity. Keys are not checked here (callers allow their own
+// extra keys). `personalize` uses it too, so both commands read priors the same way.
+estimation::CalibrationParameter parse_estimated_parameter(const model::Parameter& p,
+                                                           const ConfigNode& node);
+
+// A scalar "<number> <unit>" (or a bare number: empty unit) split into its value and unit text.
+std::pair<double, std::string> number_and_unit(const ConfigNode& node);
+
 // Registers the three sections with the config loader (so `validate` checks them and root-level
 // typos are caught). Called by the commands that use them.
 void register_calibration_sections();

@@ -104,6 +104,19 @@ void add_set_option(CLI::App& sub, std::vector<std::string>& overrides) {
       ->allow_extra_args(false);
 }
 
+void fill_provenance(io::Provenance& prov, const Config& config, const CommandContext& ctx,
+                     const std::string& kind, int threads, int ranks) {
+  prov.kind = kind;
+  prov.name = config.name;
+  prov.config_file = config.file.file();
+  prov.config_text = config.file.text();
+  prov.overrides = config.file.overrides();
+  prov.command_line = ctx.command_line;
+  prov.seed = config.seed;
+  prov.threads = threads;
+  prov.ranks = ranks;
+}
+
 std::filesystem::path default_output_path(const std::filesystem::path& config,
                                           const std::string& kind) {
   return std::filesystem::path("results") / (config.stem().string() + "-" + kind + ".h5");

@@ -94,8 +94,9 @@ int run_calibrate(const CalibrateOptions& o, CommandContext& ctx) {
       if (stage_iteration >= 0) progress.finish();
       stage_iteration = p.iteration;
       stage_attempt = p.attempt;
-      std::string stage = p.total == 1 ? std::string("fit at the estimate")
-                                       : "iteration " + std::to_string(p.iteration + 1);
+      // A batch of one run is a centre run (a backtracking step, or the fit at the estimate).
+      std::string stage = "iteration " + std::to_string(p.iteration + 1) +
+                          (p.total == 1 ? std::string(" (centre run)") : std::string());
       if (p.attempt > 0) stage += " (retry " + std::to_string(p.attempt) + ", smaller spread)";
       progress.start(stage, p.total);
     }
@@ -155,15 +156,7 @@ int run_calibrate(const CalibrateOptions& o, CommandContext& ctx) {
     prior_std(j) = std::abs(c.transform.dtheta_deta(c.eta_mean())) * c.eta_std();
   }
 
-  prov.kind = "calibrate";
-  prov.name = config.name;
-  prov.config_file = config.file.file();
-  prov.config_text = config.file.text();
-  prov.overrides = config.file.overrides();
-  prov.command_line = ctx.command_line;
-  prov.seed = config.seed;
-  prov.threads = options.ensemble.threads > 0 ? options.ensemble.threads : omp_get_max_threads();
-  prov.ranks = estimation::mpi_size();
+  fill_provenance(prov, config, ctx, "calibrate", options.ensemble.threads > 0 ? options.ensemble.threads : omp_get_max_threads(), estimation::mpi_size());
   {
     io::Hdf5Writer h5(output);
     io::write_parameters(h5, "/parameters", config.simulator.parameters,

@@ -8,6 +8,9 @@
 // RunFailure (exit code 1); ctx.run returns the exit code otherwise (normally 0).
 #pragma once
 
+#include "app/config.h"
+#include "app/io/results.h"
+
 #include <CLI/CLI.hpp>
 
 #include <filesystem>
@@ -39,6 +42,12 @@ void register_benchmark(CLI::App& app, CommandContext& ctx);  // the 3D Land et 
 
 // Adds the repeatable `--set key=value` option (see expand_override_key in config.h).
 void add_set_option(CLI::App& sub, std::vector<std::string>& overrides);
+// Fills the provenance every results file carries (ARCHITECTURE.md, "Results files") from the
+// config and the invocation: kind, name, config file and text, overrides, command line, seed,
+// thread and rank counts. start_utc and end_utc stay the command's to set.
+void fill_provenance(io::Provenance& prov, const Config& config, const CommandContext& ctx,
+                     const std::string& kind, int threads, int ranks = 1);
+
 // results/<config-stem>-<kind>.h5 (relative to the working directory).
 std::filesystem::path default_output_path(const std::filesystem::path& config,
                                           const std::string& kind);

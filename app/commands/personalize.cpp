@@ -29,6 +29,7 @@
 //
 // Results: HDF5 of kind "personalize" (every filter step), optional JSON summary, a table on the
 // terminal. Exit codes: 2 bad input (file:line:column), 1 when the filter aborts (results written).
+#include "app/calibration_setup.h"
 #include "app/commands/commands.h"
 #include "app/config.h"
 #include "app/errors.h"
@@ -81,17 +82,6 @@ struct PersonalizeProblem {
   std::optional<Eigen::VectorXd> truth;   // per estimated parameter (all or none)
 };
 
-std::pair<double, std::string> number_and_unit(const ConfigNode& node) {
-  const std::string text = node.as<std::string>();
-  std::istringstream in(text);
-  double value = 0.0;
-  if (!(in >> value)) node.fail("expected a number with a unit, got '" + text + "'");
-  std::string unit;
-  std::getline(in, unit);
-  const auto b = unit.find_first_not_of(" \t");
-  return {value, b == std::string::npos ? std::string{} : unit.substr(b)};
-}
-
 std::string two_digits(int i) { return (i < 10 ? "0" : "") + std::to_string(i); }
 
 // Noise std [SI] of one channel: "0.05 mL", "2 %" (of the column mean |y|), or a bare number (SI).
@@ -132,55 +122,9 @@ std::vector<int> parse_segments(const ConfigNode& node, int patches) {
 // One estimated parameter from {prior, spread, transform}; `name` is a parameter of the space.
 estimation::RoukfParameter parse_prior(const model::Parameter& p, const ConfigNode& node,
                                        double& prior) {
-  prior = node.optional_quantity("prior", p.unit, p.nominal);
-  if (prior < p.lower || prior > p.upper) {
-    std::ostringstream s;
-    s << "prior " << prior << " " << p.unit << " lies outside the bounds of " << p.name << " ["
-      << p.lower << ", " << p.upper << "]";
-    (node.has("prior") ? node["prior"] : node).fail(s.str());
-  }
-  estimation::CalibrationParameter c;  // its spread conventions, shared with `calibrate`
-  c.name = p.name;
-  c.prior_mean = prior;
-  const ConfigNode spread = node.require_child("spread");
-  const auto [value, unit] = number_and_unit(spread);
-  if (!(value > 0)) spread.fail("expected a positive spread");
-  if (unit == "%") {
-    c.spread_kind = estimation::SpreadKind::kRelative;
-    c.prior_spread = value / 100.0;
-  } else if (unit == "eta") {
-    c.spread_kind = estimation::SpreadKind::kEta;
-    c.prior_spread = value;
-  } else if (unit.empty()) {
-    spread.fail("write the spread as a percentage ('50 %'), in the parameter's unit ('2e4 " +
-                p.unit + "') or in the transformed coordinate ('0.5 eta')");
-  } else {
-    c.spread_kind = estimation::SpreadKind::kAbsolute;
-    try {
-      c.prior_spread = unit == p.unit ? value : model::units::convert(value, unit, p.unit);
-    } catch (const std::invalid_argument& e) {
-      spread.fail(std::string("spread: ") + e.what());
-    }
-  }
-  const std::string kind =
-      node.has("transform") ? node["transform"].as_choice({"identity", "log", "logit"}) : "log";
-  c.transform.kind = *estimation::parse_transform_kind(kind);
-  if (c.transform.kind == estimation::TransformKind::kLog) {
-    if (!(prior > 0)) node.fail("a log transform needs a positive prior");
-    c.transform.reference = prior;
-  } else if (c.transform.kind == estimation::TransformKind::kLogit) {
-    std::vector<double> b = {p.lower, p.upper};
-    if (node.has("bounds")) {
-      b = node["bounds"].as<std::vector<double>>();
-      if (b.size() != 2) node["bounds"].fail("expected [lower, upper]");
-    }
-    if (!std::isfinite(b[0]) || !std::isfinite(b[1]) || !(b[0] < prior && prior < b[1])) {
-      node.fail("a logit transform needs finite bounds with lower < prior < upper");
-    }
-    c.transform.lower = b[0];
-    c.transform.upper = b[1];
-  }
-  if (const std::string e = c.validate(); !e.empty()) node.fail(e);
+  // The same prior conventions as `calibrate` (app/calibration_setup.h).
+  const estimation::CalibrationParameter c = parse_estimated_parameter(p, node);
+  prior = c.prior_mean;
   estimation::RoukfParameter q;
   q.name = p.name;
   q.transform = c.transform;
@@ -484,14 +428,7 @@ int run_personalize(const PersonalizeOptions& o, CommandContext& ctx) {
   for (int j = 0; j < p; ++j) full(*config.simulator.parameters.index(names[static_cast<size_t>(j)])) = final_theta(j);
 
   // ---- Results file.
-  prov.kind = "personalize";
-  prov.name = config.name;
-  prov.config_file = config.file.file();
-  prov.config_text = config.file.text();
-  prov.overrides = config.file.overrides();
-  prov.command_line = ctx.command_line;
-  prov.seed = config.seed;
-  prov.threads = threads;
+  fill_provenance(prov, config, ctx, "personalize", threads, 1);
   {
     io::Hdf5Writer h5(output);
     io::write_parameters(h5, "/parameters", config.simulator.parameters, full);

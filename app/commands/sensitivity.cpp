@@ -451,15 +451,8 @@ int run_sensitivity(const SensitivityCommandOptions& o, CommandContext& ctx) {
   auto on_run = [&progress](int done, int) { progress.update(done); };
   setup.oat.ensemble.progress = setup.morris.ensemble.progress = setup.sobol.ensemble.progress = on_run;
 
-  prov.kind = "sensitivity";
-  prov.name = config.name;
-  prov.config_file = config.file.file();
-  prov.config_text = config.file.text();
-  prov.overrides = config.file.overrides();
-  prov.command_line = ctx.command_line;
+  fill_provenance(prov, config, ctx, "sensitivity", threads, 1);
   prov.seed = setup.method == Method::kMorris ? setup.morris.seed : setup.sobol.seed;
-  prov.threads = threads;
-  prov.ranks = 1;
 
   nlohmann::ordered_json js;
   js["kind"] = "sensitivity";

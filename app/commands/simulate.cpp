@@ -76,15 +76,7 @@ int run_simulate(const SimulateOptions& o, CommandContext& ctx) {
                result.info.step_cuts);
   const auto indicators = simulate_indicators(result, simulator->channels());
 
-  prov.kind = "simulate";
-  prov.name = config.name;
-  prov.config_file = config.file.file();
-  prov.config_text = config.file.text();
-  prov.overrides = config.file.overrides();
-  prov.command_line = ctx.command_line;
-  prov.seed = config.seed;
-  prov.threads = omp_get_max_threads();
-  prov.ranks = 1;
+  fill_provenance(prov, config, ctx, "simulate", omp_get_max_threads(), 1);
 
   {
     io::Hdf5Writer h5(output);

@@ -404,15 +404,7 @@ int run_specificity_command(const SpecificityCommandOptions& o, CommandContext& 
   const auto& obs_names = setup.problems.front().observations.names;
   const int m = static_cast<int>(obs_names.size());
 
-  prov.kind = "specificity";
-  prov.name = config.name;
-  prov.config_file = config.file.file();
-  prov.config_text = config.file.text();
-  prov.overrides = config.file.overrides();
-  prov.command_line = ctx.command_line;
-  prov.seed = config.seed;
-  prov.threads = threads;
-  prov.ranks = 1;
+  fill_provenance(prov, config, ctx, "specificity", threads, 1);
 
   const std::string per = "see /parameters/units";
   {
