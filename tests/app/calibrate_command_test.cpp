@@ -1,0 +1,109 @@
+// `sigmaheart calibrate` through the command line (app/commands/calibrate.cpp,
+// app/calibration_setup.cpp): a small twin on the lumped sphere end to end, and the promised
+// located errors (exit code 2) for bad configs and malformed observation files.
+#include "app/cli.h"
+#include "app/errors.h"
+#include "tests/app/test_support.h"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <filesystem>
+#include <sstream>
+
+namespace sigmaheart::app {
+namespace {
+
+using sigmaheart::testing::read_file;
+using sigmaheart::testing::scratch_dir;
+using sigmaheart::testing::write_file;
+
+struct CliRun {
+  int code;
+  std::string out;
+  std::string err;
+};
+
+CliRun cli(const std::vector<std::string>& args) {
+  std::ostringstream out, err;
+  const int code = run_cli(args, out, err);
+  return {code, out.str(), err.str()};
+}
+
+const std::string kHealthy = std::string(SIGMAHEART_SOURCE_DIR) + "/configs/healthy.yaml";
+
+// Observations of a hidden truth (sigma0 5.8e4 Pa, P_at0 1050 Pa) at 30 frames with noise.
+std::filesystem::path make_observations(const std::filesystem::path& dir) {
+  const auto csv = dir / "obs.csv";
+  const CliRun r = cli({"--log-level", "off", "synthesize", kHealthy, "-o", csv.string(), "--offset", "12",
+                        "--noise", "V_lv=2 mL", "--noise", "P_lv=1.5 mmHg", "--seed", "5",
+                        "--set", "sigma0=5.8e4", "--set", "P_at0=1050"});
+  EXPECT_EQ(r.code, kExitOk) << r.err;
+  return csv;
+}
+
+std::string config(const std::string& estimate, const std::string& observations =
+                       "  file: obs.csv\n  curves: [V_lv, P_lv]\n  noise: {V_lv: 2 mL, P_lv: 1.5 mmHg}\n") {
+  return "name: twin\nsimulator:\n  model: lumped-sphere\nobservations:\n" + observations +
+         "estimate:\n" + estimate +
+         "calibration: {mode: iterate-keep-spread, max_iterations: 15, tolerance: 1.0e-2}\n";
+}
+
+TEST(CalibrateCommand, RecoversAHiddenTruthFromSynthesizedCurves) {
+  const auto dir = scratch_dir();
+  make_observations(dir);
+  const auto cfg = write_file(dir / "cal.yaml", config("  sigma0: {spread: 20 %}\n  P_at0: {spread: 20 %}\n"));
+  const CliRun r = cli({"--log-level", "off", "calibrate", cfg.string(), "-o", (dir / "r.h5").string(),
+                        "--summary", (dir / "r.json").string(), "--threads", "2"});
+  ASSERT_EQ(r.code, kExitOk) << r.err;
+  const auto j = nlohmann::json::parse(read_file(dir / "r.json"));
+  const double sigma0 = j["parameters"]["sigma0"]["value"].get<double>();
+  const double pat0 = j["parameters"]["P_at0"]["value"].get<double>();
+  EXPECT_NEAR(sigma0, 5.8e4, 0.05 * 5.8e4);
+  EXPECT_NEAR(pat0, 1050.0, 0.05 * 1050.0);
+  EXPECT_LT(std::abs(sigma0 - 5.8e4), 3.0 * j["parameters"]["sigma0"]["std"].get<double>());
+  EXPECT_EQ(j["parameters"]["sigma0"]["unit"], "Pa");
+  EXPECT_LT(j["rms_normalised_residual"].get<double>(), 1.3);  // a fit at the noise level
+  EXPECT_GT(j["rms_normalised_residual_prior"].get<double>(), 2.0);
+  EXPECT_EQ(j["failures"].get<int>(), 0);
+  EXPECT_TRUE(std::filesystem::exists(dir / "r.h5"));
+  EXPECT_FALSE(std::filesystem::exists(dir / "r.h5.tmp"));
+  EXPECT_NE(r.out.find("RMS residual in noise standard deviations"), std::string::npos);
+}
+
+struct BadCase {
+  std::string yaml;
+  std::string where;  // expected location prefix
+  std::string words;  // expected words of the message
+};
+
+TEST(CalibrateCommand, BadConfigsGiveLocatedErrorsExitTwoAndKeepTheOldResult) {
+  const auto dir = scratch_dir();
+  make_observations(dir);
+  write_file(dir / "bad.csv", "time [ms], V_lv [mL]\n0, 140\n28, 139\n57, abc\n85, 120\n");
+  const std::vector<BadCase> cases = {
+      {config("  sigma_0: {spread: 20 %}\n"), "cal.yaml:9:", "did you mean 'sigma0'"},
+      {config("  sigma0: {spread: 0.2}\n"), "cal.yaml:9:", "percentage"},
+      {config("  sigma0: {spread: 20 %, transform: logt}\n"), "cal.yaml:9:", "logit"},
+      {config("  sigma0: {spread: 20 %}\n", "  file: nowhere.csv\n  curves: [V_lv]\n  noise: {V_lv: 2 mL}\n"),
+       "cal.yaml:5:", "does not exist"},
+      {config("  sigma0: {spread: 20 %}\n", "  file: bad.csv\n  curves: [V_lv]\n  noise: {V_lv: 2 mL}\n"),
+       "bad.csv:4:", "number"},
+      {config("  sigma0: {spread: 20 %}\n", "  file: obs.csv\n  curves: [V_lv]\n"), "", "noise"},
+      {config("  sigma0: {spread: 20 %}\n", "  file: obs.csv\n  indices: [EDV, ESVV]\n  noise: {default: 5 %}\n"),
+       "cal.yaml:", "ESV"},
+  };
+  write_file(dir / "r.h5", "an earlier result");
+  for (const auto& c : cases) {
+    const auto cfg = write_file(dir / "cal.yaml", c.yaml);
+    const CliRun r = cli({"--log-level", "off", "calibrate", cfg.string(), "-o", (dir / "r.h5").string()});
+    EXPECT_EQ(r.code, kExitBadInput) << c.yaml << r.err;
+    EXPECT_NE(r.err.find(c.where), std::string::npos) << c.yaml << "\n" << r.err;
+    EXPECT_NE(r.err.find(c.words), std::string::npos) << c.yaml << "\n" << r.err;
+    EXPECT_EQ(read_file(dir / "r.h5"), "an earlier result");
+  }
+}
+
+}  // namespace
+}  // namespace sigmaheart::app
