@@ -19,17 +19,8 @@ using sigmaheart::testing::read_file;
 using sigmaheart::testing::scratch_dir;
 using sigmaheart::testing::write_file;
 
-struct CliRun {
-  int code;
-  std::string out;
-  std::string err;
-};
-
-CliRun cli(const std::vector<std::string>& args) {
-  std::ostringstream out, err;
-  const int code = run_cli(args, out, err);
-  return {code, out.str(), err.str()};
-}
+using sigmaheart::testing::CliRun;
+using sigmaheart::testing::cli;
 
 const std::string kHealthy = std::string(SIGMAHEART_SOURCE_DIR) + "/configs/healthy.yaml";
 

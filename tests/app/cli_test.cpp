@@ -29,18 +29,8 @@ const char* kStandIn =
     "  parameters:\n"
     "    V_ed: 150 mL\n";
 
-struct CliRun {
-  int code;
-  std::string out;
-  std::string err;
-};
-
-CliRun cli(const std::vector<std::string>& args) {
-  sigmaheart::testing::register_stand_in();
-  std::ostringstream out, err;
-  const int code = run_cli(args, out, err);
-  return {code, out.str(), err.str()};
-}
+using sigmaheart::testing::CliRun;
+using sigmaheart::testing::cli;
 
 TEST(Cli, SimulateWritesResultsCsvAndJsonAndExitsZero) {
   const auto dir = scratch_dir();

@@ -3,6 +3,7 @@
 // run in milliseconds and can fail on demand.
 #pragma once
 
+#include "app/cli.h"
 #include "app/simulators.h"
 #include "model/simulator.h"
 
@@ -12,6 +13,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 namespace sigmaheart::testing {
 
@@ -101,6 +103,21 @@ inline void register_stand_in() {
           return std::make_unique<BeatStandIn>(p, samples);
         };
       }});
+}
+
+// One in-process run of the command line with its exit code and captured streams. The stand-in
+// simulator is registered first, so configs may name "test-beat".
+struct CliRun {
+  int code;
+  std::string out;
+  std::string err;
+};
+
+inline CliRun cli(const std::vector<std::string>& args) {
+  register_stand_in();
+  std::ostringstream out, err;
+  const int code = app::run_cli(args, out, err);
+  return {code, out.str(), err.str()};
 }
 
 }  // namespace sigmaheart::testing

@@ -20,18 +20,8 @@ using sigmaheart::testing::read_file;
 using sigmaheart::testing::scratch_dir;
 using sigmaheart::testing::write_file;
 
-struct CliRun {
-  int code;
-  std::string out;
-  std::string err;
-};
-
-CliRun cli(const std::vector<std::string>& args) {
-  sigmaheart::testing::register_stand_in();
-  std::ostringstream out, err;
-  const int code = run_cli(args, out, err);
-  return {code, out.str(), err.str()};
-}
+using sigmaheart::testing::CliRun;
+using sigmaheart::testing::cli;
 
 struct Truth {
   const char* name;
