@@ -24,18 +24,8 @@ def strings(ds) -> List[str]:
     return [text(x) for x in ds[()]]
 
 
-def observed_curve(f, name):
-    g = f.get("trajectories/observed")
-    if g is None:
-        return None
-    t = curve(g, "time")
-    c = curve(g, name)
-    if t is None or c is None:
-        return None
-    return t[0], c[0], c[1]
-
-
-def model_curve(f, which, name):
+def trajectory_curve(f, which, name):
+    """(time [s], values, unit) of channel ``name`` in /trajectories/<which>; None when absent."""
     g = f.get(f"trajectories/{which}")
     if g is None:
         return None
@@ -44,6 +34,13 @@ def model_curve(f, which, name):
     if t is None or c is None:
         return None
     return t[0], c[0], c[1]
+
+
+def observed_curve(f, name):
+    return trajectory_curve(f, "observed", name)
+
+
+model_curve = trajectory_curve
 
 
 def plot_curves(f, out_dir, stem) -> List[str]:

@@ -1,6 +1,8 @@
 // ConfigNode and ConfigFile: located errors, types, units, overrides (app/config_node.h).
 #include "app/config_node.h"
 
+#include "tests/app/test_support.h"
+
 #include <gtest/gtest.h>
 
 #include <string>
@@ -8,16 +10,7 @@
 namespace sigmaheart::app {
 namespace {
 
-// The message of the InputError that `f` throws ("" when it does not throw).
-template <class F>
-std::string error_of(F&& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "";
-}
+using sigmaheart::testing::error_of;
 
 const char* kText =
     "solver:\n"                  // 1

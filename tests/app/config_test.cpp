@@ -4,6 +4,8 @@
 #include "model/lumped/sphere.h"
 #include "model/units.h"
 
+#include "tests/app/test_support.h"
+
 #include <gtest/gtest.h>
 
 #include <string>
@@ -11,15 +13,7 @@
 namespace sigmaheart::app {
 namespace {
 
-template <class F>
-std::string error_of(F&& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "";
-}
+using sigmaheart::testing::error_of;
 
 const char* kHealthy =
     "name: healthy\n"                                // 1

@@ -4,6 +4,7 @@
 #pragma once
 
 #include "app/cli.h"
+#include "app/errors.h"
 #include "app/simulators.h"
 #include "model/simulator.h"
 
@@ -118,6 +119,17 @@ inline CliRun cli(const std::vector<std::string>& args) {
   std::ostringstream out, err;
   const int code = app::run_cli(args, out, err);
   return {code, out.str(), err.str()};
+}
+
+// The message of the app::InputError that `f` throws ("" when it does not throw).
+template <class F>
+std::string error_of(F&& f) {
+  try {
+    f();
+  } catch (const app::InputError& e) {
+    return e.what();
+  }
+  return "";
 }
 
 }  // namespace sigmaheart::testing

@@ -15,17 +15,8 @@
 
 namespace sigmaheart::app::personalize_testing {
 
-struct CliRun {
-  int code;
-  std::string out;
-  std::string err;
-};
-
-inline CliRun cli(const std::vector<std::string>& args) {
-  std::ostringstream out, err;
-  const int code = run_cli(args, out, err);
-  return {code, out.str(), err.str()};
-}
+using sigmaheart::testing::CliRun;
+using sigmaheart::testing::cli;
 
 inline std::string twin_config() {
   return std::string(SIGMAHEART_SOURCE_DIR) + "/configs/personalize-lad-infarct.yaml";
