@@ -41,22 +41,6 @@ std::string format_theta(const std::vector<std::string>& names, const Eigen::Vec
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
-const char* to_string(SpreadKind kind) {
-  switch (kind) {
-    case SpreadKind::kRelative: return "relative";
-    case SpreadKind::kAbsolute: return "absolute";
-    case SpreadKind::kEta: return "eta";
-  }
-  return "unknown";
-}
-
-std::optional<SpreadKind> parse_spread_kind(const std::string& text) {
-  if (text == "relative") return SpreadKind::kRelative;
-  if (text == "absolute") return SpreadKind::kAbsolute;
-  if (text == "eta") return SpreadKind::kEta;
-  return std::nullopt;
-}
-
 const char* to_string(UtMode mode) {
   switch (mode) {
     case UtMode::kOneShot: return "one-shot";

@@ -40,6 +40,7 @@
 #pragma once
 
 #include "estimation/ensemble.h"
+#include "estimation/prior.h"
 #include "estimation/sigma_points.h"
 #include "estimation/transform.h"
 #include "model/simulator.h"
@@ -54,15 +55,6 @@
 
 namespace sigmaheart::estimation {
 
-// How a parameter's prior spread is given.
-enum class SpreadKind {
-  kRelative,  // std of theta relative to |prior mean|; eta std = spread |theta0| / T'(eta0)
-              // (delta method). With a log transform this is exactly spread in eta.
-  kAbsolute,  // std of theta in its SI unit; eta std = spread / T'(eta0)
-  kEta,       // std in eta directly
-};
-const char* to_string(SpreadKind kind);
-std::optional<SpreadKind> parse_spread_kind(const std::string& text);  // "relative", "absolute", "eta"
 
 struct CalibrationParameter {
   std::string name;          // must equal the ForwardModel's input_names() entry, in order

@@ -52,6 +52,24 @@ std::optional<int> ParameterSpace::index(const std::string& name) const {
   return std::nullopt;
 }
 
+std::optional<int> ParameterSpace::find(const std::string& family, int segment) const {
+  for (size_t i = 0; i < params_.size(); ++i) {
+    if (params_[i].family == family && params_[i].segment == segment) return static_cast<int>(i);
+  }
+  return std::nullopt;
+}
+
+std::vector<int> ParameterSpace::regional(const std::string& family) const {
+  std::vector<int> out;
+  for (size_t i = 0; i < params_.size(); ++i) {
+    if (params_[i].family == family && params_[i].segment > 0) out.push_back(static_cast<int>(i));
+  }
+  std::stable_sort(out.begin(), out.end(), [&](int a, int b) {
+    return params_[static_cast<size_t>(a)].segment < params_[static_cast<size_t>(b)].segment;
+  });
+  return out;
+}
+
 int ParameterSpace::index_or_throw(const std::string& name) const {
   if (auto i = index(name)) return *i;
   std::string msg = "unknown parameter '" + name + "'";

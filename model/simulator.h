@@ -52,6 +52,14 @@ struct Parameter {
   double lower = -std::numeric_limits<double>::infinity();
   double upper = std::numeric_limits<double>::infinity();
   std::string doc;    // one line: what it is and where the default comes from
+  // Structure as data (docs/models.md, "Parameter tags"): estimators find parameters by tags,
+  // never by name patterns or casts. family names what the parameter is, shared by its regional
+  // copies ("contractility", "activation_time", "stiffness_scale", "scar_fraction", ...; empty:
+  // untagged); segment is the AHA segment or patch (1-based) of a regional parameter, 0 for a
+  // global one.
+  std::string family;
+  int segment = 0;
+  bool regional() const { return segment > 0; }
 };
 
 class ParameterSpace {
@@ -76,6 +84,11 @@ class ParameterSpace {
   // message naming the first offending parameter, its value, unit and bounds.
   std::string check(const Eigen::Ref<const Eigen::VectorXd>& theta) const;
 
+  // Index of the parameter tagged (family, segment); nullopt when there is none.
+  std::optional<int> find(const std::string& family, int segment = 0) const;
+  // Indices of the regional parameters of a family (segment > 0), in increasing segment order.
+  std::vector<int> regional(const std::string& family) const;
+
  private:
   std::vector<Parameter> params_;
 };
@@ -87,6 +100,9 @@ struct Channel {
   std::string name;  // e.g. "V_lv", "P_lv", "V_seg07", "phase"
   std::string unit;  // e.g. "m^3", "Pa", "m^3/s", "1"
   std::string doc;
+  // Tags as on Parameter: family ("regional_volume", ...) and the 1-based segment (0: global).
+  std::string family;
+  int segment = 0;
 };
 
 struct Trajectory {

@@ -26,6 +26,11 @@ struct CommandContext {
   std::ostream& err;          // errors (stderr); logs go through spdlog
   std::string command_line;   // the whole invocation, for provenance
   std::function<int()> run;   // set by the chosen subcommand
+  // The rank context (set up once by run_cli): every rank parses the config and runs the
+  // estimator's collective calls; only the root rank prints results and writes files.
+  int rank = 0;
+  int ranks = 1;
+  bool root() const { return rank == 0; }
 };
 
 void register_simulate(CLI::App& app, CommandContext& ctx);

@@ -112,7 +112,7 @@ sh::ParameterRange parse_range(const ConfigNode& node, const model::Parameter& p
     r.upper = p.nominal * (1.0 + f);
     if (r.lower > r.upper) std::swap(r.lower, r.upper);
   }
-  if (node.has("space")) r.space = *sh::parse_sampling_space(node["space"].as_choice({"physical", "eta"}));
+  if (node.has("space")) r.space = *estimation::parse_sampling_space(node["space"].as_choice({"physical", "eta"}));
   if (node.has("transform")) {
     r.transform.kind =
         *estimation::parse_transform_kind(node["transform"].as_choice({"identity", "log", "logit"}));
@@ -473,7 +473,7 @@ int run_sensitivity(const SensitivityCommandOptions& o, CommandContext& ctx) {
       hi(i) = r.upper;
       nom(i) = r.nominal;
       units.push_back(r.unit);
-      spaces.push_back(std::string(sh::to_string(r.space)) +
+      spaces.push_back(std::string(estimation::to_string(r.space)) +
                        (r.space == sh::SamplingSpace::kEta
                             ? std::string(" (") + estimation::to_string(r.transform.kind) + ")"
                             : std::string()));

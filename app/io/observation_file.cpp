@@ -1,5 +1,7 @@
 #include "app/io/observation_file.h"
 
+#include "app/io/display.h"
+
 #include "app/errors.h"
 #include "app/io/atomic_file.h"
 #include "model/units.h"
@@ -50,11 +52,6 @@ std::string required_dimension(const std::string& name) {
   return {};
 }
 
-std::string format_number(double v) {
-  char buf[64];
-  const auto r = std::to_chars(buf, buf + sizeof buf, v);
-  return std::string(buf, r.ptr);
-}
 
 }  // namespace
 
@@ -172,7 +169,7 @@ ObservationCurves parse_observation_csv(std::istream& in, const std::string& sou
     if (!rows.empty() && !(row[0] > rows.back()[0])) {
       std::ostringstream s;
       s << "field 1 ('time'): expected times to increase strictly, got " << fields[0].text << " "
-        << columns[0].unit << " after " << format_number(rows.back()[0] / columns[0].factor) << " "
+        << columns[0].unit << " after " << format_exact(rows.back()[0] / columns[0].factor) << " "
         << columns[0].unit;
       throw fail(line_no, fields[0].column, s.str());
     }
@@ -248,9 +245,9 @@ void write_observation_csv(const std::filesystem::path& path, const model::Traje
     for (size_t c = 0; c < m; ++c) out << ", " << trajectory.channels[c].name << " [" << units[c] << "]";
     out << '\n';
     for (Eigen::Index k = 0; k < trajectory.times.size(); ++k) {
-      out << format_number(trajectory.times(k) / time_conv->factor);
+      out << format_exact(trajectory.times(k) / time_conv->factor);
       for (size_t c = 0; c < m; ++c) {
-        out << ", " << format_number(trajectory.values(k, static_cast<Eigen::Index>(c)) * scale[c]);
+        out << ", " << format_exact(trajectory.values(k, static_cast<Eigen::Index>(c)) * scale[c]);
       }
       out << '\n';
     }

@@ -13,15 +13,6 @@
 
 namespace sigmaheart::app::io {
 
-DisplayUnit display_unit(const std::string& si_unit) {
-  static const std::vector<std::pair<std::string, std::string>> clinical = {
-      {"m^3", "mL"}, {"m^3/s", "mL/s"}, {"Pa", "mmHg"}, {"Pa/s", "mmHg/s"}};
-  for (const auto& [si, shown] : clinical) {
-    if (si == si_unit) return {shown, model::units::convert(1.0, si, shown)};
-  }
-  return {si_unit, 1.0};
-}
-
 std::string version() { return SIGMAHEART_VERSION; }
 std::string git_describe() { return SIGMAHEART_GIT_DESCRIBE; }
 

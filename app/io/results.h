@@ -7,6 +7,7 @@
 // a `units` attribute naming the unit its numbers are in, so readers never guess.
 #pragma once
 
+#include "app/io/display.h"
 #include "app/io/hdf5_writer.h"
 #include "model/simulator.h"
 
@@ -20,13 +21,6 @@
 
 namespace sigmaheart::app::io {
 
-// The unit a quantity is shown in, and the factor from SI: shown = si_value * from_si.
-struct DisplayUnit {
-  std::string unit;
-  double from_si = 1.0;
-};
-// m^3 -> mL, m^3/s -> mL/s, Pa -> mmHg, Pa/s -> mmHg/s; any other unit is shown as is.
-DisplayUnit display_unit(const std::string& si_unit);
 
 // "0.1.0" and the `git describe` of the build.
 std::string version();

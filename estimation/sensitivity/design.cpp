@@ -8,20 +8,6 @@
 
 namespace sigmaheart::estimation::sensitivity {
 
-const char* to_string(SamplingSpace space) {
-  switch (space) {
-    case SamplingSpace::kPhysical: return "physical";
-    case SamplingSpace::kEta: return "eta";
-  }
-  return "unknown";
-}
-
-std::optional<SamplingSpace> parse_sampling_space(const std::string& text) {
-  if (text == "physical" || text == "theta") return SamplingSpace::kPhysical;
-  if (text == "eta" || text == "transformed") return SamplingSpace::kEta;
-  return std::nullopt;
-}
-
 std::string ParameterRange::validate() const {
   std::ostringstream s;
   const std::string who = "parameter '" + name + "': ";

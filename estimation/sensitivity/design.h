@@ -4,6 +4,7 @@
 #pragma once
 
 #include "estimation/ensemble.h"
+#include "estimation/prior.h"
 #include "estimation/transform.h"
 
 #include <Eigen/Core>
@@ -16,14 +17,8 @@
 
 namespace sigmaheart::estimation::sensitivity {
 
-// Where a parameter is sampled uniformly.
-enum class SamplingSpace {
-  kPhysical,  // theta uniform on [lower, upper]
-  kEta,       // eta uniform on [to_eta(lower), to_eta(upper)], theta = to_theta(eta); with a log
-              // transform this is log-uniform (ESTIMATION.md s.1)
-};
-const char* to_string(SamplingSpace space);
-std::optional<SamplingSpace> parse_sampling_space(const std::string& text);  // "physical", "eta"
+using estimation::SamplingSpace;
+
 
 // One studied parameter. The ForwardModel's inputs and the ranges correspond one to one, in order.
 struct ParameterRange {

@@ -474,12 +474,15 @@ ParameterSpace RegionalVentricle::default_parameters(const RegionalOptions& opti
     const std::string where = aha ? " of segment " + xx + " (" + aha17_segment_names()[static_cast<size_t>(p)] + ")"
                                   : " of patch " + xx;
     out.push_back({"sigma0_" + xx, s0.unit, s0.nominal, s0.lower, s0.upper,
-                   "contractility" + where + " [the sphere's sigma0]"});
+                   "contractility" + where + " [the sphere's sigma0]", "contractility", p + 1});
     out.push_back({"Td_" + xx, "s", td[static_cast<size_t>(p)], 0.0, 1.0,
                    "activation (depolarisation) time" + where + std::string(" [pattern '") +
-                       to_string(options.activation) + "']"});
-    out.push_back({"stiff_" + xx, "1", 1.0, 0.05, 20.0, "passive stiffness scale" + where});
-    out.push_back({"scar_" + xx, "1", 0.0, 0.0, 1.0, "non-contractile (scar) fraction" + where});
+                       to_string(options.activation) + "']",
+                   "activation_time", p + 1});
+    out.push_back({"stiff_" + xx, "1", 1.0, 0.05, 20.0, "passive stiffness scale" + where,
+                   "stiffness_scale", p + 1});
+    out.push_back({"scar_" + xx, "1", 0.0, 0.0, 1.0, "non-contractile (scar) fraction" + where,
+                   "scar_fraction", p + 1});
   }
   return ParameterSpace(std::move(out));
 }
@@ -520,7 +523,8 @@ std::vector<Channel> RegionalVentricle::channels() const {
   for (int p = 0; p < n_; ++p) {
     c.push_back({"V_seg" + two_digits(p + 1), "m^3",
                  "regional cavity volume V w_p c_p of " +
-                     (n_ == 17 ? aha17_segment_names()[static_cast<size_t>(p)] : "patch " + two_digits(p + 1))});
+                     (n_ == 17 ? aha17_segment_names()[static_cast<size_t>(p)] : "patch " + two_digits(p + 1)),
+                 "regional_volume", p + 1});
   }
   return c;
 }

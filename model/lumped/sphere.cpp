@@ -185,7 +185,7 @@ ParameterSpace LumpedSphere::default_parameters() {
   // working set of MODELS.md s.2; [T] tuned so that the healthy beat meets MODELS.md s.7.
   std::vector<Parameter> p(kNumParams);
   auto set = [&](int i, const char* unit, double nominal, double lo, double hi, const char* doc) {
-    p[static_cast<size_t>(i)] = Parameter{name_of(i), unit, nominal, lo, hi, doc};
+    p[static_cast<size_t>(i)] = Parameter{name_of(i), unit, nominal, lo, hi, doc, "", 0};
   };
   set(kRho, "kg/m^3", 1e3, 500.0, 2000.0, "wall density; tissue ~ water [C14]");
   set(kR0, "m", 2.4e-2, 5e-3, 6e-2, "reference (unloaded) sphere radius [C14 working set]");
@@ -224,6 +224,7 @@ ParameterSpace LumpedSphere::default_parameters() {
       "exponential passive stiffening (MODELS.md s.2) [T: static EDP 5.5/7.8/13.5 mmHg at "
       "140/160/180 mL]");
   set(kBexp, "1", 1.0, 0.0, 50.0, "exponent b_exp of the passive stiffening (J1 - 3)^2 [T]");
+  p[kSigma0].family = "contractility";
   return ParameterSpace(std::move(p));
 }
 
