@@ -1,9 +1,10 @@
 """Figures of sigmaheart results files (HDF5), one plot function per result kind.
 
 Every results file carries a root attribute ``kind`` ("simulate", "calibrate", ...); ``PLOTTERS``
-maps each kind to a function ``plot(f, out_dir, stem) -> list of PNG paths``. A new command adds
-its function with ``@plotter("calibrate")``. Curves are stored in the unit their ``units``
-attribute names (clinical units: mL, mmHg, s), so labels come from the file, never from guesses.
+maps each kind to a function ``plot(f, out_dir, stem) -> list of PNG paths`` defined in its own
+module. A new command adds its module and one entry here. The helpers every module shares (file
+reading with units, trajectory readers, styling, saving) are in sigmaplot_common.py, which
+imports none of the others, so there are no import cycles.
 
 Needs Debian's python3 (matplotlib, numpy, h5py): run through scripts/plot.
 """
@@ -12,204 +13,19 @@ from __future__ import annotations
 import os
 from typing import Callable, Dict, List
 
-import matplotlib
+import sigmaplot_calibrate
+import sigmaplot_regional
+import sigmaplot_simulate
+import sigmaplot_studies
+from sigmaplot_common import text
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.patches import Patch  # noqa: E402
-
-PLOTTERS: Dict[str, Callable] = {}
-
-# The phase channel of the lumped and 3D simulators (model/lumped/sphere.cpp, channel "phase").
-PHASES = {
-    0: ("filling", "#9ecae1"),
-    1: ("isovolumic contraction", "#fdae6b"),
-    2: ("ejection", "#e6550d"),
-    3: ("isovolumic relaxation", "#a1d99b"),
+PLOTTERS: Dict[str, Callable] = {
+    "simulate": sigmaplot_simulate.plot_simulate,
+    "calibrate": sigmaplot_calibrate.plot_calibrate,
+    "personalize": sigmaplot_regional.plot_personalize,
+    "sensitivity": sigmaplot_studies.plot_sensitivity,
+    "specificity": sigmaplot_studies.plot_specificity,
 }
-
-STYLE = {
-    "figure.dpi": 110,
-    "savefig.dpi": 150,
-    "font.size": 10,
-    "axes.titlesize": 12,
-    "axes.labelsize": 10,
-    "axes.grid": True,
-    "grid.alpha": 0.3,
-    "axes.spines.top": False,
-    "axes.spines.right": False,
-    "legend.frameon": False,
-}
-
-
-def plotter(kind: str):
-    """Registers a plot function for results files whose root attribute ``kind`` is ``kind``."""
-
-    def register(fn):
-        PLOTTERS[kind] = fn
-        return fn
-
-    return register
-
-
-def text(value) -> str:
-    """An HDF5 string (attribute or dataset item) as str."""
-    if isinstance(value, bytes):
-        return value.decode("utf-8")
-    if isinstance(value, np.ndarray) and value.shape == ():
-        return text(value[()])
-    return str(value)
-
-
-def curve(group, name: str):
-    """(values, unit) of dataset ``name`` in ``group``; None when absent."""
-    if name not in group:
-        return None
-    ds = group[name]
-    return np.asarray(ds[()], dtype=float), text(ds.attrs.get("units", ""))
-
-
-def title_of(f, what: str) -> str:
-    name = text(f.attrs.get("name", "")) or os.path.basename(f.filename)
-    return f"{what} \u2014 {name}"
-
-
-def provenance_note(f) -> str:
-    version = text(f.attrs.get("sigmaheart_version", "?"))
-    git = text(f.attrs.get("git_describe", "?"))
-    end = text(f.attrs.get("end_utc", ""))
-    return f"sigmaheart {version} ({git}) {end}"
-
-
-def phase_runs(time: np.ndarray, phase: np.ndarray):
-    """Contiguous runs (t_start, t_end, phase) of the phase channel, ends at sample midpoints."""
-    if len(time) == 0:
-        return []
-    edges = np.concatenate(([time[0]], 0.5 * (time[1:] + time[:-1]), [time[-1]]))
-    runs, start = [], 0
-    for k in range(1, len(phase) + 1):
-        if k == len(phase) or phase[k] != phase[start]:
-            runs.append((edges[start], edges[k], int(round(phase[start]))))
-            start = k
-    return runs
-
-
-def shade_phases(ax, time, phase):
-    """Shades the cardiac phases behind a time axis; returns legend handles of the phases seen."""
-    seen = []
-    for t0, t1, p in phase_runs(time, phase):
-        label, color = PHASES.get(p, (f"phase {p}", "#dddddd"))
-        ax.axvspan(t0, t1, color=color, alpha=0.25, lw=0, zorder=0)
-        if p not in seen:
-            seen.append(p)
-    return [Patch(facecolor=PHASES.get(p, ("", "#dddddd"))[1], alpha=0.5,
-                  label=PHASES.get(p, (f"phase {p}", ""))[0]) for p in sorted(seen)]
-
-
-def save(fig, out_dir: str, stem: str, suffix: str) -> str:
-    path = os.path.join(out_dir, f"{stem}-{suffix}.png")
-    fig.savefig(path, bbox_inches="tight")
-    plt.close(fig)
-    return path
-
-
-@plotter("simulate")
-def plot_simulate(f, out_dir: str, stem: str) -> List[str]:
-    """PV loop coloured by phase, and volume and pressure curves with the phases shaded."""
-    g = f["trajectories/simulated"]
-    time, time_unit = curve(g, "time")
-    volume = curve(g, "V_lv")
-    p_lv = curve(g, "P_lv")
-    phase = curve(g, "phase")
-    written = []
-    with plt.rc_context(STYLE):
-        if volume is not None and p_lv is not None:
-            written.append(save(pv_loop(f, volume, p_lv, phase), out_dir, stem, "pv-loop"))
-        written.append(save(curves(f, g, time, time_unit, phase), out_dir, stem, "curves"))
-    return written
-
-
-def pv_loop(f, volume, pressure, phase):
-    (v, v_unit), (p, p_unit) = volume, pressure
-    fig, ax = plt.subplots(figsize=(5.5, 5))
-    if phase is not None:
-        ph = phase[0]
-        for code, (label, color) in PHASES.items():
-            mask = ph == code
-            if not mask.any():
-                continue
-            # Segments of consecutive samples in this phase (joined to the next sample).
-            idx = np.flatnonzero(mask)
-            breaks = np.flatnonzero(np.diff(idx) > 1)
-            for seg_i, seg in enumerate(np.split(idx, breaks + 1)):
-                seg = np.append(seg, min(seg[-1] + 1, len(v) - 1))
-                ax.plot(v[seg], p[seg], color=color, lw=2.2,
-                        label=label if seg_i == 0 else None, solid_capstyle="round")
-    else:
-        ax.plot(v, p, color="k", lw=2, label="LV")
-    ed, es = int(np.argmax(v)), int(np.argmin(v))
-    ax.plot(v[ed], p[ed], "o", color="#08519c", ms=7, zorder=5,
-            label=f"end-diastole ({v[ed]:.0f} {v_unit}, {p[ed]:.1f} {p_unit})")
-    ax.plot(v[es], p[es], "s", color="#a50f15", ms=7, zorder=5,
-            label=f"end-systole ({v[es]:.0f} {v_unit}, {p[es]:.0f} {p_unit})")
-    ax.set_xlabel(f"LV volume [{v_unit}]")
-    ax.set_ylabel(f"LV pressure [{p_unit}]")
-    ax.set_ylim(bottom=min(0.0, float(np.min(p))))
-    ax.set_title(title_of(f, "Pressure-volume loop"))
-    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2, fontsize=8)
-    add_summary_box(f, ax)
-    fig.text(0.99, 0.0, provenance_note(f), ha="right", va="bottom", fontsize=6, color="0.5")
-    return fig
-
-
-def add_summary_box(f, ax):
-    if "summary" not in f:
-        return
-    s = f["summary"].attrs
-    lines = []
-    for name, fmt in (("EDV", "{:.0f}"), ("ESV", "{:.0f}"), ("EF", "{:.0f}"), ("P_max", "{:.0f}")):
-        if name in s:
-            lines.append(f"{name} {fmt.format(float(s[name]))} {text(s.get(name + '.units', ''))}")
-    if lines:
-        # Inside the loop, where no curve runs.
-        ax.text(0.45, 0.5, "\n".join(lines), transform=ax.transAxes, va="center", ha="center",
-                fontsize=8, family="monospace",
-                bbox=dict(boxstyle="round", facecolor="white", edgecolor="0.8", alpha=0.9))
-
-
-def curves(f, g, time, time_unit, phase):
-    fig, (ax_v, ax_p) = plt.subplots(2, 1, figsize=(8, 6.5), sharex=True,
-                                     gridspec_kw=dict(height_ratios=[1, 1.3]))
-    handles = []
-    for ax in (ax_v, ax_p):
-        if phase is not None:
-            handles = shade_phases(ax, time, phase[0])
-    volume = curve(g, "V_lv")
-    if volume is not None:
-        ax_v.plot(time, volume[0], color="#08519c", lw=2, label="LV volume")
-        ax_v.set_ylabel(f"volume [{volume[1]}]")
-    pressures = [("P_lv", "LV", "#a50f15", "-"), ("P_ar", "aortic", "#252525", "-"),
-                 ("P_at", "atrial", "#31a354", "--")]
-    unit = ""
-    for name, label, color, ls in pressures:
-        c = curve(g, name)
-        if c is not None:
-            ax_p.plot(time, c[0], color=color, ls=ls, lw=1.8, label=label)
-            unit = c[1]
-    ax_p.set_ylabel(f"pressure [{unit}]")
-    ax_p.set_xlabel(f"time in beat [{time_unit}]")
-    ax_p.set_xlim(time[0], time[-1])
-    ax_v.legend(loc="lower left", fontsize=8)
-    lines = ax_p.legend(loc="upper right", fontsize=8)
-    if handles:
-        ax_p.add_artist(lines)
-        fig.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize=8,
-                   bbox_to_anchor=(0.5, 0.025), title="cardiac phase", title_fontsize=8)
-    ax_v.set_title(title_of(f, "Volume and pressure over the periodic beat"))
-    fig.text(0.99, 0.0, provenance_note(f), ha="right", va="bottom", fontsize=6, color="0.5")
-    fig.tight_layout(rect=(0, 0.1, 1, 1))
-    return fig
 
 
 def plot_file(path: str, out_dir: str | None = None) -> List[str]:
@@ -225,6 +41,3 @@ def plot_file(path: str, out_dir: str | None = None) -> List[str]:
             known = ", ".join(sorted(PLOTTERS))
             raise ValueError(f"{path}: no plots for results of kind '{kind}' (known: {known})")
         return PLOTTERS[kind](f, out_dir, stem)
-import sigmaplot_studies  # noqa: E402,F401  (registers the "sensitivity" and "specificity" plots)
-import sigmaplot_regional  # noqa: E402,F401  (registers the "personalize" plots)
-import sigmaplot_calibrate  # noqa: E402,F401  (registers the "calibrate" plots)

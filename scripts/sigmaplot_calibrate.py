@@ -13,27 +13,11 @@ from typing import List
 
 import numpy as np
 
-from sigmaplot import curve, plotter, plt, provenance_note, save, text, title_of
+from sigmaplot_common import plt, provenance_note, save, strings, title_of, trajectory_curve
 
 PRIOR = dict(color="#7f7f7f", lw=1.4, ls="--", label="prior (defaults)")
 CALIBRATED = dict(color="#d62728", lw=2.0, label="calibrated")
 OBSERVED = dict(color="#1f77b4", marker="o", ms=4, ls="none", label="observed frames")
-
-
-def strings(ds) -> List[str]:
-    return [text(x) for x in ds[()]]
-
-
-def trajectory_curve(f, which, name):
-    """(time [s], values, unit) of channel ``name`` in /trajectories/<which>; None when absent."""
-    g = f.get(f"trajectories/{which}")
-    if g is None:
-        return None
-    t = curve(g, "time")
-    c = curve(g, name)
-    if t is None or c is None:
-        return None
-    return t[0], c[0], c[1]
 
 
 def observed_curve(f, name):
@@ -83,11 +67,14 @@ def plot_curves(f, out_dir, stem) -> List[str]:
     return [save(fig, out_dir, stem, "fit")]
 
 
+def observations(f):
+    """(names, units, y, noise std) of /observations, in the units the file names."""
+    o = f["observations"]
+    return strings(o["names"]), strings(o["units"]), o["y"][()], o["noise_std"][()]
+
+
 def plot_indices(f, out_dir, stem) -> List[str]:
-    names = strings(f["observations/names"])
-    units = strings(f["observations/units"])
-    y = f["observations/y"][()]
-    s = f["observations/noise_std"][()]
+    names, units, y, s = observations(f)
     before = f["fit/before"][()]
     after = f["fit/after"][()]
     fig, axes = plt.subplots(1, len(names), figsize=(1.9 * len(names) + 1, 3.6), squeeze=False)
@@ -130,9 +117,7 @@ def plot_parameters(f, out_dir, stem) -> List[str]:
 
 
 def plot_residuals(f, out_dir, stem) -> List[str]:
-    names = strings(f["observations/names"])
-    y = f["observations/y"][()]
-    s = f["observations/noise_std"][()]
+    names, _, y, s = observations(f)
     before = (y - f["fit/before"][()]) / s
     after = (y - f["fit/after"][()]) / s
     fig, ax = plt.subplots(figsize=(max(6, 0.14 * len(names) + 3), 3.6))
@@ -149,7 +134,6 @@ def plot_residuals(f, out_dir, stem) -> List[str]:
     return [save(fig, out_dir, stem, "residuals")]
 
 
-@plotter("calibrate")
 def plot_calibrate(f, out_dir: str, stem: str) -> List[str]:
     paths = plot_curves(f, out_dir, stem) if "trajectories/observed" in f else []
     if not paths:

@@ -16,9 +16,8 @@ from typing import List
 import numpy as np
 from matplotlib.patches import Circle, Wedge
 
-import sigmaplot as sp  # noqa: E402  (sigmaplot is fully loaded when it imports this module)
-
-plt = sp.plt
+import sigmaplot_common as sp
+from sigmaplot_common import plt, strings
 
 AHA_NAMES = [
     "basal anterior", "basal anteroseptal", "basal inferoseptal", "basal inferior",
@@ -26,10 +25,6 @@ AHA_NAMES = [
     "mid inferoseptal", "mid inferior", "mid inferolateral", "mid anterolateral",
     "apical anterior", "apical septal", "apical inferior", "apical lateral", "apex",
 ]
-
-
-def _strings(ds) -> List[str]:
-    return [sp.text(v) for v in ds[()]]
 
 
 def _scaled(unit: str):
@@ -97,7 +92,7 @@ def _segment_values(f, family: str, data):
     """17 values (NaN where the segment is not estimated) of per-segment family `family`."""
     out = np.full(17, np.nan)
     seg = np.asarray(f["estimate/segment"][()])
-    fam = _strings(f["estimate/family"])
+    fam = strings(f["estimate/family"])
     for j, (s, name) in enumerate(zip(seg, fam)):
         if name == family and 1 <= s <= 17:
             out[s - 1] = data[j]
@@ -105,9 +100,9 @@ def _segment_values(f, family: str, data):
 
 
 def _plot_bullseye(f, out_dir, stem) -> List[str]:
-    fam = _strings(f["estimate/family"])
+    fam = strings(f["estimate/family"])
     seg = np.asarray(f["estimate/segment"][()])
-    units = _strings(f["estimate/units"])
+    units = strings(f["estimate/units"])
     families = [n for n in dict.fromkeys(fam) if any(s > 0 for s, m in zip(seg, fam) if m == n)]
     paths = []
     for family in families:
@@ -139,18 +134,34 @@ def _plot_bullseye(f, out_dir, stem) -> List[str]:
 
 
 def _grid(n: int, max_cols: int = 5, width: float = 3.0, height: float = 2.3):
-    cols = min(n, max_cols)
-    rows = int(math.ceil(n / cols))
-    fig, axes = plt.subplots(rows, cols, figsize=(width * cols, height * rows), squeeze=False,
-                             sharex=True)
-    for k in range(n, rows * cols):
-        axes.flat[k].set_visible(False)
-    return fig, axes
+    return sp.grid(n, max_cols, width, height, sharex=True)
+
+
+def _segment_name(segment: int, count: int) -> str:
+    """The AHA name of a 1-based segment when all 17 are shown, else empty."""
+    return AHA_NAMES[segment - 1] if 1 <= segment <= 17 and count >= 17 else ""
+
+
+def _label_panel(ax, name: str, where: str, unit: str):
+    ax.set_title(f"{name} {where}".strip(), fontsize=8)
+    ax.set_ylabel(f"[{unit}]", fontsize=8)
+    ax.tick_params(labelsize=7)
+
+
+def _finish_grid(f, fig, axes, xlabel: str, ncol: int, title: str, out_dir, stem, suffix):
+    """x labels on the bottom row, the first panel's legend for the figure, title, save."""
+    for ax in axes[-1, :]:
+        ax.set_xlabel(xlabel, fontsize=8)
+    handles, labels = axes.flat[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="upper right", ncol=ncol)
+    fig.suptitle(sp.title_of(f, title), y=1.0)
+    fig.tight_layout()
+    return [sp.save(fig, out_dir, stem, suffix)]
 
 
 def _plot_trajectories(f, out_dir, stem) -> List[str]:
-    names = _strings(f["estimate/names"])
-    units = _strings(f["estimate/units"])
+    names = strings(f["estimate/names"])
+    units = strings(f["estimate/units"])
     seg = np.asarray(f["estimate/segment"][()])
     theta = np.asarray(f["steps/theta"][()])
     lo = np.asarray(f["steps/theta_lower"][()])
@@ -172,22 +183,14 @@ def _plot_trajectories(f, out_dir, stem) -> List[str]:
             ax.axhline(truth[j] * k, color="black", lw=1.2, ls="--", label="truth")
         for b in range(1, int(beat.max()) + 1 if len(beat) else 1):
             ax.axvline(b, color="gray", lw=0.5, alpha=0.5)
-        where = AHA_NAMES[seg[j] - 1] if 1 <= seg[j] <= 17 and len(names) >= 17 else ""
-        ax.set_title(f"{name} {where}".strip(), fontsize=8)
-        ax.set_ylabel(f"[{unit}]", fontsize=8)
-        ax.tick_params(labelsize=7)
-    for ax in axes[-1, :]:
-        ax.set_xlabel("filter time [passes over the beat]", fontsize=8)
-    handles, labels = axes.flat[0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="upper right", ncol=4)
-    fig.suptitle(sp.title_of(f, "ROUKF parameter trajectories"), y=1.0)
-    fig.tight_layout()
-    return [sp.save(fig, out_dir, stem, "trajectories")]
+        _label_panel(ax, name, _segment_name(seg[j], len(names)), unit)
+    return _finish_grid(f, fig, axes, "filter time [passes over the beat]", 4,
+                        "ROUKF parameter trajectories", out_dir, stem, "trajectories")
 
 
 def _plot_volume_fits(f, out_dir, stem) -> List[str]:
-    names = _strings(f["observations/names"])
-    units = _strings(f["observations/units"])
+    names = strings(f["observations/names"])
+    units = strings(f["observations/units"])
     t = np.asarray(f["observations/time"][()]) * 1e3
     y = np.asarray(f["observations/values"][()])
     fitted = np.asarray(f["steps/fitted"][()])
@@ -209,20 +212,11 @@ def _plot_volume_fits(f, out_dir, stem) -> List[str]:
             ax.plot(t, fitted[last, c], color="tab:blue", lw=1.4,
                     label=f"fitted, pass {int(beat.max()) + 1}")
         seg = int(name[-2:]) if name[-2:].isdigit() else 0
-        where = AHA_NAMES[seg - 1] if 1 <= seg <= 17 and len(names) >= 17 else ""
-        ax.set_title(f"{name} {where}".strip(), fontsize=8)
-        ax.set_ylabel(f"[{units[c]}]", fontsize=8)
-        ax.tick_params(labelsize=7)
-    for ax in axes[-1, :]:
-        ax.set_xlabel("time in beat [ms]", fontsize=8)
-    handles, labels = axes.flat[0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="upper right", ncol=3)
-    fig.suptitle(sp.title_of(f, "regional volume fits"), y=1.0)
-    fig.tight_layout()
-    return [sp.save(fig, out_dir, stem, "volume-fits")]
+        _label_panel(ax, name, _segment_name(seg, len(names)), units[c])
+    return _finish_grid(f, fig, axes, "time in beat [ms]", 3, "regional volume fits", out_dir,
+                        stem, "volume-fits")
 
 
-@sp.plotter("personalize")
 def plot_personalize(f, out_dir: str, stem: str) -> List[str]:
     with plt.rc_context(sp.STYLE):
         return _plot_trajectories(f, out_dir, stem) + _plot_bullseye(f, out_dir, stem) + \

@@ -1,8 +1,5 @@
 """Figures of the study commands: results of kind "sensitivity" and "specificity".
 
-Imported at the end of sigmaplot.py, so the plot functions register with its ``@plotter``; the
-names are taken from sigmaplot inside the functions that need them (no circular import at load).
-
 sensitivity (app/commands/sensitivity.cpp), depending on /analysis@method:
   oat     tornado per output (bars: z(low) - z(nominal), z(high) - z(nominal)), elasticity heat map
   morris  mu*-sigma plane per output (with bootstrap intervals), heat map of mu* / max per output
@@ -18,30 +15,21 @@ from typing import List
 
 import numpy as np
 
-import sigmaplot as sp  # noqa: E402  (sigmaplot is fully loaded when it imports this module)
-
-plt = sp.plt
-
-
-def _strings(ds) -> List[str]:
-    return [sp.text(v) for v in ds[()]]
+import sigmaplot_common as sp
+from sigmaplot_common import plt, strings
 
 
 def _grid(n: int, width: float = 3.6, height: float = 3.0, max_cols: int = 4):
-    cols = min(max_cols, n)
-    rows = math.ceil(n / cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(width * cols, height * rows), squeeze=False)
-    flat = axes.ravel()
-    for ax in flat[n:]:
-        ax.set_visible(False)
-    return fig, flat[:n]
+    """n panels, returned as a flat list."""
+    fig, axes = sp.grid(n, max_cols, width, height)
+    return fig, axes.ravel()[:n]
 
 
 def _common(f):
     a = f["analysis"]
-    params = _strings(a["parameters/names"])
-    outputs = _strings(a["outputs/names"])
-    units = _strings(a["outputs/units"])
+    params = strings(a["parameters/names"])
+    outputs = strings(a["outputs/names"])
+    units = strings(a["outputs/units"])
     return a, params, outputs, units
 
 
@@ -66,6 +54,14 @@ def _heatmap(ax, M, params, outputs, title, cbar_label, cmap="viridis", vmin=0.0
     ax.set_ylabel("parameter")
     ax.set_title(title)
     plt.colorbar(im, ax=ax, label=cbar_label, fraction=0.04, pad=0.02)
+
+
+def _heatmap_figure(f, M, params, outputs, title, cbar_label, out_dir, stem, **kw) -> str:
+    """One heat map (parameter x output) in a figure sized to the table, saved as <stem>-heatmap."""
+    fig, ax = plt.subplots(figsize=(1.0 + 0.55 * len(outputs), 1.5 + 0.35 * len(params)))
+    _heatmap(ax, M, params, outputs, sp.title_of(f, title), cbar_label, **kw)
+    fig.tight_layout()
+    return sp.save(fig, out_dir, stem, "heatmap")
 
 
 def _plot_oat(f, out_dir, stem) -> List[str]:
@@ -100,12 +96,10 @@ def _plot_oat(f, out_dir, stem) -> List[str]:
         fig.tight_layout(rect=(0, 0, 1, 0.97))
         paths.append(sp.save(fig, out_dir, stem, "tornado"))
 
-        fig, ax = plt.subplots(figsize=(1.0 + 0.55 * len(outputs), 1.5 + 0.35 * len(params)))
-        _heatmap(ax, np.abs(el), params, outputs,
-                 sp.title_of(f, "Elasticity |d ln output / d ln parameter|"), "|elasticity| [1]",
-                 vmax=max(1.0, float(np.nanmax(np.abs(el))) if np.isfinite(el).any() else 1.0))
-        fig.tight_layout()
-        paths.append(sp.save(fig, out_dir, stem, "heatmap"))
+        paths.append(_heatmap_figure(
+            f, np.abs(el), params, outputs, "Elasticity |d ln output / d ln parameter|",
+            "|elasticity| [1]", out_dir, stem,
+            vmax=max(1.0, float(np.nanmax(np.abs(el))) if np.isfinite(el).any() else 1.0)))
     return paths
 
 
@@ -144,11 +138,9 @@ def _plot_morris(f, out_dir, stem) -> List[str]:
         paths.append(sp.save(fig, out_dir, stem, "morris"))
 
         norm = mus / np.nanmax(mus, axis=0, keepdims=True)
-        fig, ax = plt.subplots(figsize=(1.0 + 0.55 * len(outputs), 1.5 + 0.35 * len(params)))
-        _heatmap(ax, norm, params, outputs, sp.title_of(f, "Morris mu* relative to the largest per output"),
-                 "mu* / max mu* [1]")
-        fig.tight_layout()
-        paths.append(sp.save(fig, out_dir, stem, "heatmap"))
+        paths.append(_heatmap_figure(f, norm, params, outputs,
+                                     "Morris mu* relative to the largest per output",
+                                     "mu* / max mu* [1]", out_dir, stem))
     return paths
 
 
@@ -191,11 +183,9 @@ def _plot_sobol(f, out_dir, stem) -> List[str]:
         fig.tight_layout(rect=(0, 0, 1, 0.97))
         paths.append(sp.save(fig, out_dir, stem, "sobol-bars"))
 
-        fig, ax = plt.subplots(figsize=(1.0 + 0.55 * len(outputs), 1.5 + 0.35 * len(params)))
-        _heatmap(ax, np.clip(S1, 0, 1), params, outputs,
-                 sp.title_of(f, "Main effect: first-order Sobol' index S1"), "S1 [1]")
-        fig.tight_layout()
-        paths.append(sp.save(fig, out_dir, stem, "heatmap"))
+        paths.append(_heatmap_figure(f, np.clip(S1, 0, 1), params, outputs,
+                                     "Main effect: first-order Sobol' index S1", "S1 [1]",
+                                     out_dir, stem))
 
         if "convergence" in g and "n" in g["convergence"]:
             ns = sorted(int(n) for n in g["convergence/n"][()])
@@ -223,7 +213,6 @@ def _plot_sobol(f, out_dir, stem) -> List[str]:
     return paths
 
 
-@sp.plotter("sensitivity")
 def plot_sensitivity(f, out_dir: str, stem: str) -> List[str]:
     """Tornado (OAT), mu*-sigma (Morris) or S1/ST bars and convergence (Sobol'), and a heat map."""
     method = sp.text(f["analysis"].attrs.get("method", ""))
@@ -236,20 +225,19 @@ def plot_sensitivity(f, out_dir: str, stem: str) -> List[str]:
     raise ValueError(f"unknown sensitivity method '{method}'")
 
 
-@sp.plotter("specificity")
 def plot_specificity(f, out_dir: str, stem: str) -> List[str]:
     """Per parameter: every case's posterior mean +- std by group, group means, truth if known."""
-    params = _strings(f["parameters/names"])
-    units = _strings(f["parameters/units"])
-    names = _strings(f["cases/names"])
-    groups = _strings(f["cases/groups"])
+    params = strings(f["parameters/names"])
+    units = strings(f["parameters/units"])
+    names = strings(f["cases/names"])
+    groups = strings(f["cases/groups"])
     mean = np.asarray(f["cases/mean"][()])
     std = np.asarray(f["cases/std"][()])
     truth = np.asarray(f["cases/truth"][()]) if "cases/truth" in f else None
     st = f["statistics"]
     valid = int(st.attrs.get("valid", 0)) == 1
     order = [sp.text(st.attrs["group_a"]), sp.text(st.attrs["group_b"])] if valid else sorted(set(groups))
-    ranking = _strings(st["ranking"]) if valid and "ranking" in st else params
+    ranking = strings(st["ranking"]) if valid and "ranking" in st else params
     idx = {p: j for j, p in enumerate(params)}
     colors = {order[0]: "#3182bd", order[1] if len(order) > 1 else "": "#e6550d"}
     paths = []

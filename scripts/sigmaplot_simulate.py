@@ -1,0 +1,145 @@
+"""Figures of `sigmaheart simulate` results (kind "simulate"; app/commands/simulate.cpp).
+
+- <stem>-pv-loop.png: the pressure-volume loop coloured by cardiac phase, end-diastole and
+  end-systole marked, the summary indices (EDV, ESV, EF, P_max) inside the loop;
+- <stem>-curves.png: LV volume, and LV, aortic and atrial pressure over the periodic beat with the
+  phases shaded.
+"""
+from __future__ import annotations
+
+from typing import List
+
+import numpy as np
+from matplotlib.patches import Patch
+
+from sigmaplot_common import STYLE, curve, plt, provenance_note, save, text, title_of
+
+# The phase channel of the lumped and 3D simulators (model/lumped/sphere.cpp, channel "phase").
+PHASES = {
+    0: ("filling", "#9ecae1"),
+    1: ("isovolumic contraction", "#fdae6b"),
+    2: ("ejection", "#e6550d"),
+    3: ("isovolumic relaxation", "#a1d99b"),
+}
+
+
+def phase_runs(time: np.ndarray, phase: np.ndarray):
+    """Contiguous runs (t_start, t_end, phase) of the phase channel, ends at sample midpoints."""
+    if len(time) == 0:
+        return []
+    edges = np.concatenate(([time[0]], 0.5 * (time[1:] + time[:-1]), [time[-1]]))
+    runs, start = [], 0
+    for k in range(1, len(phase) + 1):
+        if k == len(phase) or phase[k] != phase[start]:
+            runs.append((edges[start], edges[k], int(round(phase[start]))))
+            start = k
+    return runs
+
+
+def shade_phases(ax, time, phase):
+    """Shades the cardiac phases behind a time axis; returns legend handles of the phases seen."""
+    seen = []
+    for t0, t1, p in phase_runs(time, phase):
+        label, color = PHASES.get(p, (f"phase {p}", "#dddddd"))
+        ax.axvspan(t0, t1, color=color, alpha=0.25, lw=0, zorder=0)
+        if p not in seen:
+            seen.append(p)
+    return [Patch(facecolor=PHASES.get(p, ("", "#dddddd"))[1], alpha=0.5,
+                  label=PHASES.get(p, (f"phase {p}", ""))[0]) for p in sorted(seen)]
+
+
+def plot_simulate(f, out_dir: str, stem: str) -> List[str]:
+    """PV loop coloured by phase, and volume and pressure curves with the phases shaded."""
+    g = f["trajectories/simulated"]
+    time, time_unit = curve(g, "time")
+    volume = curve(g, "V_lv")
+    p_lv = curve(g, "P_lv")
+    phase = curve(g, "phase")
+    written = []
+    with plt.rc_context(STYLE):
+        if volume is not None and p_lv is not None:
+            written.append(save(pv_loop(f, volume, p_lv, phase), out_dir, stem, "pv-loop"))
+        written.append(save(curves(f, g, time, time_unit, phase), out_dir, stem, "curves"))
+    return written
+
+
+def pv_loop(f, volume, pressure, phase):
+    (v, v_unit), (p, p_unit) = volume, pressure
+    fig, ax = plt.subplots(figsize=(5.5, 5))
+    if phase is not None:
+        ph = phase[0]
+        for code, (label, color) in PHASES.items():
+            mask = ph == code
+            if not mask.any():
+                continue
+            # Segments of consecutive samples in this phase (joined to the next sample).
+            idx = np.flatnonzero(mask)
+            breaks = np.flatnonzero(np.diff(idx) > 1)
+            for seg_i, seg in enumerate(np.split(idx, breaks + 1)):
+                seg = np.append(seg, min(seg[-1] + 1, len(v) - 1))
+                ax.plot(v[seg], p[seg], color=color, lw=2.2,
+                        label=label if seg_i == 0 else None, solid_capstyle="round")
+    else:
+        ax.plot(v, p, color="k", lw=2, label="LV")
+    ed, es = int(np.argmax(v)), int(np.argmin(v))
+    ax.plot(v[ed], p[ed], "o", color="#08519c", ms=7, zorder=5,
+            label=f"end-diastole ({v[ed]:.0f} {v_unit}, {p[ed]:.1f} {p_unit})")
+    ax.plot(v[es], p[es], "s", color="#a50f15", ms=7, zorder=5,
+            label=f"end-systole ({v[es]:.0f} {v_unit}, {p[es]:.0f} {p_unit})")
+    ax.set_xlabel(f"LV volume [{v_unit}]")
+    ax.set_ylabel(f"LV pressure [{p_unit}]")
+    ax.set_ylim(bottom=min(0.0, float(np.min(p))))
+    ax.set_title(title_of(f, "Pressure-volume loop"))
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2, fontsize=8)
+    add_summary_box(f, ax)
+    fig.text(0.99, 0.0, provenance_note(f), ha="right", va="bottom", fontsize=6, color="0.5")
+    return fig
+
+
+def add_summary_box(f, ax):
+    if "summary" not in f:
+        return
+    s = f["summary"].attrs
+    lines = []
+    for name, fmt in (("EDV", "{:.0f}"), ("ESV", "{:.0f}"), ("EF", "{:.0f}"), ("P_max", "{:.0f}")):
+        if name in s:
+            lines.append(f"{name} {fmt.format(float(s[name]))} {text(s.get(name + '.units', ''))}")
+    if lines:
+        # Inside the loop, where no curve runs.
+        ax.text(0.45, 0.5, "\n".join(lines), transform=ax.transAxes, va="center", ha="center",
+                fontsize=8, family="monospace",
+                bbox=dict(boxstyle="round", facecolor="white", edgecolor="0.8", alpha=0.9))
+
+
+def curves(f, g, time, time_unit, phase):
+    fig, (ax_v, ax_p) = plt.subplots(2, 1, figsize=(8, 6.5), sharex=True,
+                                     gridspec_kw=dict(height_ratios=[1, 1.3]))
+    handles = []
+    for ax in (ax_v, ax_p):
+        if phase is not None:
+            handles = shade_phases(ax, time, phase[0])
+    volume = curve(g, "V_lv")
+    if volume is not None:
+        ax_v.plot(time, volume[0], color="#08519c", lw=2, label="LV volume")
+        ax_v.set_ylabel(f"volume [{volume[1]}]")
+    pressures = [("P_lv", "LV", "#a50f15", "-"), ("P_ar", "aortic", "#252525", "-"),
+                 ("P_at", "atrial", "#31a354", "--")]
+    unit = ""
+    for name, label, color, ls in pressures:
+        c = curve(g, name)
+        if c is not None:
+            ax_p.plot(time, c[0], color=color, ls=ls, lw=1.8, label=label)
+            unit = c[1]
+    ax_p.set_ylabel(f"pressure [{unit}]")
+    ax_p.set_xlabel(f"time in beat [{time_unit}]")
+    ax_p.set_xlim(time[0], time[-1])
+    ax_v.legend(loc="lower left", fontsize=8)
+    lines = ax_p.legend(loc="upper right", fontsize=8)
+    if handles:
+        ax_p.add_artist(lines)
+        fig.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize=8,
+                   bbox_to_anchor=(0.5, 0.025), title="cardiac phase", title_fontsize=8)
+    ax_v.set_title(title_of(f, "Volume and pressure over the periodic beat"))
+    fig.text(0.99, 0.0, provenance_note(f), ha="right", va="bottom", fontsize=6, color="0.5")
+    fig.tight_layout(rect=(0, 0.1, 1, 1))
+    return fig
