@@ -87,15 +87,18 @@ Beat run_beat(const LvCircuit& sim, double dt_dense, int n_frames, const Periodi
   ts.erase(std::unique(ts.begin(), ts.end()), ts.end());
   auto all = record(sim, beat.t_ed_cycle, y_ed, ts, o);
   for (auto& s : all) s.t -= beat.t_ed_cycle;
-  auto near = [](double a, double b) { return std::abs(a - b) < 1e-12; };
-  for (int k = 0; k <= n_dense; ++k) {
-    const double tk = std::min(k * dt_dense, T);
-    for (const auto& s : all) if (near(s.t, tk)) { beat.dense.push_back(s); break; }
-  }
-  for (int k = 0; k < n_frames; ++k) {
-    const double tk = T * k / n_frames;
-    for (const auto& s : all) if (near(s.t, tk)) { beat.frames.push_back(s); break; }
-  }
+  auto at = [&all](double tk) {  // the recorded sample at time tk (ts holds every such time)
+    const auto it = std::lower_bound(all.begin(), all.end(), tk - 1e-12,
+                                     [](const Sample& s, double v) { return s.t < v; });
+    if (it == all.end() || std::abs(it->t - tk) > 1e-12) {
+      throw std::logic_error("foreign bench: output time not recorded");
+    }
+    Sample s = *it;
+    s.t = tk;  // the nominal time, not (t_ed + tk) - t_ed
+    return s;
+  };
+  for (int k = 0; k <= n_dense; ++k) beat.dense.push_back(at(std::min(k * dt_dense, T)));
+  for (int k = 0; k < n_frames; ++k) beat.frames.push_back(at(T * k / n_frames));
   return beat;
 }
 
