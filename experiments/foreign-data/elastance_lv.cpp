@@ -7,7 +7,7 @@
 namespace foreign {
 namespace {
 
-// Unnormalised double-Hill product g1/(1+g1) * 1/(1+g2), Stergiopulos 1996 eq. (1).
+// Unnormalised double-Hill product g1/(1+g1) * 1/(1+g2) (Stergiopulos et al. 1996).
 double double_hill(double s, const ElastanceParameters& p) {
   if (s <= 0.0) return 0.0;
   const double g1 = std::pow(s / p.tau1, p.m1);

@@ -3,16 +3,17 @@
 // valves and a three-element Windkessel. Written apart from model/ (no shared code).
 //
 //   LV:   P_lv = e(t) Ees (V_lv - V0_es) + (1 - e(t)) A (exp(B (V_lv - V0_ed)) - 1)
-//         e(t): double-Hill normalised elastance of Stergiopulos, Meister & Westerhof 1996,
-//         Am J Physiol 270:H2050, eq. (1)-(2) (their human-LV shape m1 = 1.32, m2 = 27.4);
-//         the blend of an end-systolic line with an exponential end-diastolic relation follows
-//         the "single-fibre-free" lumped chambers of Mynard, Davidson, Penny & Smolich 2012,
-//         Int J Numer Meth Biomed Eng 28:626 (s. 2.3, active + passive chamber pressure).
-//   LA:   P_la = (E_min + k_a a(t) (E_max - E_min)) (V_la - V0_la), a(t) a raised-cosine kick
-//         (the atrial elastance of e.g. Mynard 2012 s. 2.3); k_a = 0 removes atrial contraction.
-//   Valves: Q = max(dP, 0) / R (ideal diode + resistance: no regurgitation, no inertance).
+//         e(t) = k (t/tau1)^m1 / (1 + (t/tau1)^m1) * 1 / (1 + (t/tau2)^m2), k: max e = 1
+//         (the double-Hill normalised elastance of Stergiopulos, Meister & Westerhof 1996,
+//         Am J Physiol 270:H2050, with their human-LV steepness m1 = 1.32, m2 = 27.4); the blend
+//         of a linear end-systolic and an exponential end-diastolic relation weighted by e(t) is
+//         the ventricle of Smith, Chase, Nokes, Shaw & Wake 2004, Med Eng Phys 26:131.
+//   LA:   P_la = (E_min + k_a a(t) (E_max - E_min)) (V_la - V0_la), a(t) a raised-cosine twitch
+//         ending shortly after ventricular onset; k_a = 0 removes atrial contraction.
+//   Valves: Q = max(dP, 0) / R (ideal diode + resistance: no regurgitation, no inertance; the
+//         dynamic valve of Mynard et al. 2012, Int J Numer Meth Biomed Eng 28:626, is not used).
 //   Windkessel (Westerhof 3-element): P_ao = P_c + Zc Q_av, C dP_c/dt = Q_av - (P_c - P_ven)/R.
-//   Inflow: Q_pv = (P_pv - P_la) / R_pv.
+//   Inflow: Q_pv = (P_pv - P_la) / R_pv (P_pv: the preload).
 // State y = [V_lv (mL), V_la (mL), P_c (mmHg)].
 #pragma once
 
@@ -59,7 +60,7 @@ class ElastanceLv final : public LvCircuit {
   void rhs(double t, const Eigen::VectorXd& y, Eigen::VectorXd& dy) const override;
   Sample observe(double t, const Eigen::VectorXd& y) const override;
 
-  /// Normalised ventricular elastance e(t) in [0, 1] (Stergiopulos 1996 eq. 1-2, scaled to max 1).
+  /// Normalised ventricular elastance e(t) in [0, 1] (Stergiopulos 1996 double Hill, max 1).
   double activation(double t) const;
   /// Atrial activation a(t) in [0, 1]: 0.5 (1 - cos(2 pi s / T_la)) for s in [0, T_la].
   double atrial_activation(double t) const;

@@ -10,9 +10,11 @@
 namespace foreign {
 namespace {
 
-// Targets (README "Cases"): healthy adult CMR volumes of Maceira et al. 2006, J Cardiovasc Magn
-// Reson 8:417 (EDV ~120-160 mL, EF 57-75 %); reduced contractility = dilated HFrEF, EF ~30 %;
-// stiff wall + high afterload = hypertensive HFpEF, EF >= 55 %, high EDP, peak LV >= 160 mmHg.
+// Targets (README "Cases"): healthy adult SSFP-CMR volumes (Hudsmith et al. 2005, J Cardiovasc
+// Magn Reson 7:775: EDV 160 +- 29 mL in men, 135 +- 26 mL in women; Maceira et al. 2006, J
+// Cardiovasc Magn Reson 8:417), EF 55-65 %, EDP 6-12 mmHg; reduced contractility = dilated
+// HFrEF, EF ~30 %; stiff wall + high afterload = hypertensive HFpEF, EF >= 55 %, high EDP,
+// peak LV >= 160 mmHg.
 ElastanceParameters elastance_healthy() {
   ElastanceParameters p;
   p.heart_rate = 65.0;

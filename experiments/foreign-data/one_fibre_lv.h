@@ -15,7 +15,9 @@
 //                   g = tanh^2(t_a / tau_r) tanh^2((t_max - t_a) / tau_d), 0 <= t_a <= t_max
 //                   t_max = b (l_s - l_d)           (longer twitch at longer sarcomeres)
 //                   dl_c/dt = v0 (E_a (l_s - l_c) - 1)                       (Kerckhoffs 2003)
-// The length dependence of f and t_max is the cellular Frank-Starling mechanism.
+// The length dependence of f and t_max is the cellular Frank-Starling mechanism. The form follows
+// Kerckhoffs 2003 / Bovendeerd 2006; the values (OneFibreParameters, cases.yaml) were tuned here
+// for the cases, not copied from their tables.
 // State y = [V_lv (mL), l_c (um), V_la (mL), P_c (mmHg)].
 #pragma once
 
