@@ -103,7 +103,7 @@ std::vector<BenchCase> bench_cases() {
     p.A_ed = 0.4;
     p.B_ed = 0.02;
     p.V0_ed = 20.0;
-    p.P_pv = 14.0;
+    p.P_pv = 12.0;
     p.R_sys = 0.85;
     p.C_sys = 1.4;
     cases.push_back({"elastance", "reduced", "reduced contractility, dilated (EF ~30 %), 85 bpm", p,
@@ -138,8 +138,8 @@ std::vector<BenchCase> bench_cases() {
     p.V_wall = 170.0;
     p.V_ref = 80.0;
     p.c_p = 1.0;
-    p.T0 = 90.0;
-    p.P_pv = 17.0;
+    p.T0 = 80.0;
+    p.P_pv = 15.0;
     p.R_sys = 0.85;
     cases.push_back({"one-fibre", "reduced", "reduced contractility, dilated (EF ~30 %), 90 bpm", p,
                      203});
