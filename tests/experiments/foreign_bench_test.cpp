@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -257,6 +258,51 @@ bool same_line(const std::string& a, const std::string& b) {
     if (std::abs(x[k] - y[k]) > 1e-6 * std::max(1.0, std::abs(x[k])) + 2e-3) return false;
   }
   return true;
+}
+
+// The bench must stay foreign: no source of experiments/foreign-data includes sigmaheart code.
+TEST(ForeignBench, SharesNoCodeWithSigmaheart) {
+  const std::filesystem::path dir = std::filesystem::path(SIGMAHEART_SOURCE_DIR) / "experiments/foreign-data";
+  int sources = 0;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) {
+    const auto ext = e.path().extension();
+    if (ext != ".h" && ext != ".cpp" && e.path().filename() != "CMakeLists.txt") continue;
+    ++sources;
+    for (const auto& line : lines_of(e.path())) {
+      for (const char* banned : {"\"model/", "\"observers/", "\"estimation/", "\"app/", "sigmaheart::",
+                                 "sigmaheart_"}) {
+        EXPECT_EQ(line.find(banned), std::string::npos) << e.path().filename() << ": " << line;
+      }
+    }
+  }
+  EXPECT_GE(sources, 10);
+}
+
+// The measurement-like files are in the format app/io/observation_file.cpp reads: comment lines,
+// the header 'time [s], V_lv [mL], P_lv [mmHg]', then 30 rows of three numbers from t = 0.
+TEST(ForeignBench, ExportedFramesHaveTheObservationFileFormat) {
+  const std::filesystem::path dir = std::filesystem::path(SIGMAHEART_SOURCE_DIR) / "configs/data/foreign";
+  for (const auto& c : cases()) {
+    const auto lines = lines_of(dir / (c.file_stem() + ".csv"));
+    size_t k = 0;
+    while (k < lines.size() && lines[k].rfind("#", 0) == 0) ++k;
+    ASSERT_LT(k, lines.size());
+    EXPECT_EQ(lines[k], "time [s], V_lv [mL], P_lv [mmHg]") << c.file_stem();
+    EXPECT_EQ(lines.size() - k - 1, 30u) << c.file_stem();
+    double last_t = -1.0;
+    for (size_t r = k + 1; r < lines.size(); ++r) {
+      double t = 0, v = 0, p = 0;
+      ASSERT_EQ(std::sscanf(lines[r].c_str(), "%lf, %lf, %lf", &t, &v, &p), 3) << lines[r];
+      EXPECT_GT(t, last_t);
+      if (r == k + 1) {
+        EXPECT_EQ(t, 0.0);
+      }
+      last_t = t;
+    }
+    bool noise_line = false;
+    for (size_t r = 0; r < k; ++r) noise_line |= lines[r].find("noise V_lv: Gaussian, std 2 mL") != std::string::npos;
+    EXPECT_TRUE(noise_line) << c.file_stem();
+  }
 }
 
 TEST(ForeignBench, BundledFilesEqualWhatTheProgramWrites) {
