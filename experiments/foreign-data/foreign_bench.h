@@ -1,0 +1,76 @@
+// The common harness of the foreign-data bench: a minimal LV-simulator interface, the periodic
+// steady state, one recorded beat starting at end-diastole, and the clinical indices of a beat.
+// Physics lives in elastance_lv.* and one_fibre_lv.*, which share nothing but this file and
+// foreign_ode.h. Nothing here includes or links sigmaheart (model/, observers/, estimation/, app/).
+#pragma once
+
+#include <Eigen/Core>
+
+#include <string>
+#include <vector>
+
+namespace foreign {
+
+/// What a bench simulator reports at one instant (clinical units: s, mL, mmHg, mL/s).
+struct Sample {
+  double t = 0.0;     ///< [s]
+  double V_lv = 0.0;  ///< [mL] LV cavity volume
+  double P_lv = 0.0;  ///< [mmHg] LV cavity pressure
+  double V_la = 0.0;  ///< [mL] left-atrial volume
+  double P_la = 0.0;  ///< [mmHg] left-atrial pressure
+  double P_ao = 0.0;  ///< [mmHg] aortic root pressure (upstream of Zc)
+  double Q_pv = 0.0;  ///< [mL/s] pulmonary-venous inflow to the atrium
+  double Q_mv = 0.0;  ///< [mL/s] mitral flow (>= 0: diode valve)
+  double Q_av = 0.0;  ///< [mL/s] aortic-valve flow (>= 0: diode valve)
+  double Q_per = 0.0; ///< [mL/s] peripheral outflow of the Windkessel through R
+};
+
+/// An LV + atrium + valves + Windkessel circuit with ventricular activation onset at t = 0 mod T.
+/// Contract: rhs and observe are pure functions of (t, y) (no hidden state), so a simulator can be
+/// shared read-only between threads; sizes of y and dy equal initial_state().size().
+class LvCircuit {
+ public:
+  virtual ~LvCircuit() = default;
+  virtual double period() const = 0;  ///< [s]
+  virtual Eigen::VectorXd initial_state() const = 0;
+  virtual void rhs(double t, const Eigen::VectorXd& y, Eigen::VectorXd& dy) const = 0;
+  virtual Sample observe(double t, const Eigen::VectorXd& y) const = 0;
+};
+
+struct PeriodicOptions {
+  double tolerance = 1e-6;  ///< max over states of |y(nT+T) - y(nT)| / max(|y(nT)|, 1)
+  int min_beats = 3;
+  int max_beats = 400;
+  double rtol = 1e-10, atol = 1e-10;  ///< Dormand-Prince tolerances
+};
+
+/// One periodic beat, recorded from end-diastole (t = 0) to the next end-diastole.
+struct Beat {
+  double period = 0.0;        ///< [s]
+  double t_ed_cycle = 0.0;    ///< [s] end-diastole in cycle time (activation onset = 0)
+  int beats_to_periodic = 0;  ///< beats run before the beat-to-beat change met the tolerance
+  double periodic_change = 0.0;  ///< the last beat-to-beat relative change
+  std::vector<Sample> dense;     ///< noise-free samples every dt_dense, t in [0, T]
+  std::vector<Sample> frames;    ///< noise-free samples at t_k = k T / n_frames, k < n_frames
+};
+
+/// Runs beats from initial_state() until periodic, finds end-diastole (the instant of mitral
+/// closure before ejection = the maximum volume, since both valves are then closed) and records
+/// one beat from there. Throws std::runtime_error when no periodic state is reached.
+Beat run_beat(const LvCircuit& sim, double dt_dense = 1e-3, int n_frames = 30,
+              const PeriodicOptions& opt = {});
+
+/// Clinical indices of a recorded beat (computed from Beat::dense).
+struct Indices {
+  double heart_rate = 0.0;  ///< [bpm]
+  double EDV = 0.0, ESV = 0.0, SV = 0.0;  ///< [mL] at t = 0, minimum, EDV - ESV
+  double EF = 0.0;          ///< [%]
+  double P_peak = 0.0;      ///< [mmHg] peak LV pressure
+  double EDP = 0.0;         ///< [mmHg] LV pressure at t = 0
+  double dPdt_max = 0.0;    ///< [mmHg/s] by central differences of the dense samples
+  double P_ao_sys = 0.0, P_ao_dia = 0.0;  ///< [mmHg] aortic max / min
+  double CO = 0.0;          ///< [L/min] SV * HR
+};
+Indices indices_of(const Beat& beat);
+
+}  // namespace foreign
