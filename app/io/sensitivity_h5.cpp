@@ -125,6 +125,20 @@ struct MethodWriter {
   const SensitivitySetup& setup;
   const OutputDisplay& d;
 
+  // JSON indices/<output k>: its unit, `extra` keys, the ranking and entry(i) per parameter i.
+  template <class Entry>
+  void json_indices(int k, const std::vector<int>& order, const nlohmann::ordered_json& extra,
+                    Entry entry) const {
+    auto& jo = (*js)["indices"][d.names[static_cast<size_t>(k)]];
+    jo["unit"] = d.units[static_cast<size_t>(k)];
+    for (const auto& [key, value] : extra.items()) jo[key] = value;
+    for (int i : order) {
+      const auto& n = setup.prior.parameters[static_cast<size_t>(i)].name;
+      jo["ranking"].push_back(n);
+      jo["parameters"][n] = entry(i);
+    }
+  }
+
   void operator()(const sh::OatSummary& r) const {
     const std::vector<std::string>& names = r.parameters;
     const Eigen::VectorXd z_nom = r.z_nominal.cwiseProduct(d.factor);
@@ -155,15 +169,10 @@ struct MethodWriter {
       const auto& u = d.units[static_cast<size_t>(k)];
       const auto order = r.ranking(k);
       if (js) {
-        auto& jo = (*js)["indices"][d.names[static_cast<size_t>(k)]];
-        jo["unit"] = u;
-        jo["nominal"] = z_nom(k);
-        for (int i : order) {
-          const auto& n = names[static_cast<size_t>(i)];
-          jo["ranking"].push_back(n);
-          jo["parameters"][n] = {{"delta_low", dl(i, k)}, {"delta_high", dh(i, k)},
-                                 {"swing", swing(i, k)}, {"elasticity", r.normalised(i, k)}};
-        }
+        json_indices(k, order, {{"nominal", z_nom(k)}}, [&](int i) -> nlohmann::ordered_json {
+          return {{"delta_low", dl(i, k)}, {"delta_high", dh(i, k)}, {"swing", swing(i, k)},
+                  {"elasticity", r.normalised(i, k)}};
+        });
       }
       if (report) {
         *report << d.names[static_cast<size_t>(k)] << " (nominal " << format_number(z_nom(k), 4) << " " << u << "):";
@@ -220,15 +229,11 @@ struct MethodWriter {
       const auto& un = d.units[static_cast<size_t>(k)];
       const auto order = r.ranking(k);
       if (js) {
-        auto& jo = (*js)["indices"][d.names[static_cast<size_t>(k)]];
-        jo["unit"] = un;
-        for (int i : order) {
-          const auto& n = names[static_cast<size_t>(i)];
-          jo["ranking"].push_back(n);
-          jo["parameters"][n] = {{"mu", mu(i, k)}, {"mu_star", mus(i, k)}, {"sigma", sg(i, k)},
-                                 {"mu_star_low", r.mu_star_low(i, k) * d.factor(k)},
-                                 {"mu_star_high", r.mu_star_high(i, k) * d.factor(k)}};
-        }
+        json_indices(k, order, nlohmann::ordered_json::object(), [&](int i) -> nlohmann::ordered_json {
+          return {{"mu", mu(i, k)}, {"mu_star", mus(i, k)}, {"sigma", sg(i, k)},
+                  {"mu_star_low", r.mu_star_low(i, k) * d.factor(k)},
+                  {"mu_star_high", r.mu_star_high(i, k) * d.factor(k)}};
+        });
       }
       if (report) {
         *report << d.names[static_cast<size_t>(k)] << " [" << un << "], mu* (sigma):";
@@ -298,15 +303,12 @@ struct MethodWriter {
     for (int k = 0; k < m; ++k) {
       const auto order = r.ranking(k);
       if (js) {
-        auto& jo = (*js)["indices"][d.names[static_cast<size_t>(k)]];
-        jo["unit"] = d.units[static_cast<size_t>(k)];
-        if (has_std) jo["std"] = e.output_std(k) * d.factor(k);
-        for (int i : order) {
-          const auto& n = names[static_cast<size_t>(i)];
-          jo["ranking"].push_back(n);
-          jo["parameters"][n] = {{"S1", e.S1(i, k)}, {"S1_low", e.S1_low(i, k)}, {"S1_high", e.S1_high(i, k)},
-                                 {"ST", e.ST(i, k)}, {"ST_low", e.ST_low(i, k)}, {"ST_high", e.ST_high(i, k)}};
-        }
+        nlohmann::ordered_json extra = nlohmann::ordered_json::object();
+        if (has_std) extra["std"] = e.output_std(k) * d.factor(k);
+        json_indices(k, order, extra, [&](int i) -> nlohmann::ordered_json {
+          return {{"S1", e.S1(i, k)}, {"S1_low", e.S1_low(i, k)}, {"S1_high", e.S1_high(i, k)},
+                  {"ST", e.ST(i, k)}, {"ST_low", e.ST_low(i, k)}, {"ST_high", e.ST_high(i, k)}};
+        });
       }
       if (report) {
         *report << d.names[static_cast<size_t>(k)];
