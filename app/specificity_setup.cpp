@@ -79,6 +79,17 @@ std::vector<CaseEntry> parse_cases(const Config& config) {
   return cases;
 }
 
+// The calibration problem's estimated parameters: names, SI units and prior means (the same for
+// every case, one config).
+void read_estimated_parameters(const CalibrationProblem& problem, SpecificitySetup& s) {
+  s.prior_mean.resize(static_cast<Eigen::Index>(problem.parameters.size()));
+  for (const auto& cp : problem.parameters) {
+    s.prior_mean(static_cast<Eigen::Index>(s.names.size())) = cp.prior_mean;
+    s.names.push_back(cp.name);
+  }
+  s.units = problem.parameter_units;
+}
+
 // The one construction of a case's UtCalibration (see the header).
 estimation::UtCalibration make_calibration(const CalibrationProblem& problem,
                                            estimation::ForwardModel& model,
@@ -131,13 +142,7 @@ SpecificitySetup parse_specificity_setup(const Config& config) {
   }
   for (const auto& c : s.cases) s.problems.push_back(parse_calibration_problem(config, c.file));
   const CalibrationProblem& first = s.problems.front();
-  // The estimated parameters (calibration_setup.h): names, units and prior means.
-  s.prior_mean.resize(static_cast<Eigen::Index>(first.parameters.size()));
-  for (const auto& cp : first.parameters) {
-    s.prior_mean(static_cast<Eigen::Index>(s.names.size())) = cp.prior_mean;
-    s.names.push_back(cp.name);
-  }
-  s.units = first.parameter_units;
+  read_estimated_parameters(first, s);
   s.observation_names = first.observations.names;
   s.observation_si_units = first.observations.units;
   return s;
