@@ -2,6 +2,8 @@
 // configuration, then ask which parameters separate two groups (e.g. volunteers and heart-failure
 // patients). Per parameter: group means and spreads, effect sizes, Welch's t and Mann-Whitney U
 // tests, the AUC; jointly: the leave-one-out accuracy of a shrunk linear discriminant.
+// run_specificity returns a SpecificitySummary: every case's calibration record in cohort order
+// and the statistics, or the status kNoStatistics when the groups are too small (not an exception).
 //
 // Read only parameters that are both sensitive (a sensitivity study) and well identified (small
 // posterior spread, reported here per group as the mean posterior standard deviation).

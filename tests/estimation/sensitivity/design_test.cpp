@@ -1,5 +1,7 @@
 #include "estimation/sensitivity/design.h"
 
+#include "estimation/sensitivity/oat.h"
+#include "estimation/sensitivity/sobol_indices.h"
 #include "estimation/sensitivity/test_functions.h"
 
 #include <gtest/gtest.h>
@@ -101,4 +103,13 @@ TEST(Design, PercentileIntervalInterpolatesOrderStatistics) {
   const auto [lo, hi] = sh::percentile_interval(v, 0.9);
   EXPECT_DOUBLE_EQ(lo, 5.0);
   EXPECT_DOUBLE_EQ(hi, 95.0);
+}
+
+TEST(Design, EnumNamesRoundTripAndAcceptAliases) {
+  for (auto m : {sh::OatMode::kRange, sh::OatMode::kRelative}) EXPECT_EQ(sh::parse_oat_mode(sh::to_string(m)), m);
+  EXPECT_EQ(sh::parse_sobol_failure_policy("impute_mean"), sh::SobolFailurePolicy::kImputeMean);
+  EXPECT_STREQ(sh::to_string(sh::SobolFailurePolicy::kImputeMean), "impute-mean");
+  EXPECT_EQ(sh::parse_scrambling("off"), sh::Scrambling::kNone);
+  EXPECT_STREQ(sh::to_string(sh::Scrambling::kLinearMatrixAndShift), "lms");
+  EXPECT_FALSE(sh::parse_oat_mode("sideways").has_value());
 }
