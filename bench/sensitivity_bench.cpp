@@ -36,7 +36,7 @@ void BM_SobolStudyGFunction(benchmark::State& bench) {
   o.bootstrap_samples = 500;
   o.ensemble.threads = static_cast<int>(bench.range(0));
   for (auto _ : bench) {
-    const auto r = sh::run_sobol(sh::GFunctionModel(a), sh::g_function_ranges(8), o);
+    const auto r = sh::run_sobol(sh::GFunctionModel(a), sh::g_function_prior(8), o);
     benchmark::DoNotOptimize(r.estimate.S1.data());
   }
   bench.SetItemsProcessed(bench.iterations() * 1024 * 10);
@@ -51,16 +51,11 @@ void BM_SobolStudyLumpedSphere(benchmark::State& bench) {
   const sigmaheart::observers::GlobalIndices observer({}, sim.channels());
   const std::vector<std::string> names = {"sigma0", "R_p"};
   const sigmaheart::estimation::SimulatorForwardModel model(sim, observer, names);
-  std::vector<sh::ParameterRange> ranges;
+  sigmaheart::estimation::Prior prior;
   for (const auto& n : names) {
     const auto& p = sim.parameters()[sim.parameters().index_or_throw(n)];
-    sh::ParameterRange r;
-    r.name = n;
-    r.unit = p.unit;
-    r.nominal = p.nominal;
-    r.lower = 0.8 * p.nominal;
-    r.upper = 1.2 * p.nominal;
-    ranges.push_back(r);
+    prior.parameters.push_back(sigmaheart::estimation::PriorParameter::uniform(
+        n, p.unit, 0.8 * p.nominal, 1.2 * p.nominal, p.nominal));
   }
   sh::SobolOptions o;
   o.base_samples = 16;
@@ -69,7 +64,7 @@ void BM_SobolStudyLumpedSphere(benchmark::State& bench) {
   o.ensemble.threads = static_cast<int>(bench.range(0));
   int sims = 0;
   for (auto _ : bench) {
-    const auto r = sh::run_sobol(model, ranges, o);
+    const auto r = sh::run_sobol(model, prior, o);
     if (!r.failed_runs.empty()) {
       bench.SkipWithError(r.message.c_str());
       return;

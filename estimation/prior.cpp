@@ -118,6 +118,11 @@ std::string PriorParameter::validate() const {
   const std::string who = "parameter '" + name + "': ";
   if (name.empty()) return "prior parameter without a name";
   if (const std::string t = transform.validate(); !t.empty()) return who + t;
+  if (kind == PriorKind::kUniform &&
+      !(std::isfinite(lower) && std::isfinite(upper) && lower < upper)) {
+    s << who << "needs finite bounds with lower < upper, got [" << lower << ", " << upper << "]";
+    return s.str();
+  }
   if (!(lower <= upper) || std::isnan(lower) || std::isnan(upper)) {
     s << who << "bounds [" << lower << ", " << upper << "] are not ordered";
     return s.str();

@@ -18,6 +18,12 @@ DisplayUnit display_unit(const std::string& si_unit) {
   return {si_unit, 1.0};
 }
 
+DisplayUnit quantity_display_unit(const std::string& name, const std::string& si_unit) {
+  if (name == "EF" && si_unit == "1") return {"%", 100.0};
+  if (si_unit == "s") return {"ms", 1000.0};
+  return display_unit(si_unit);
+}
+
 std::string format_number(double value, int significant) {
   std::ostringstream s;
   s.precision(significant);

@@ -15,6 +15,10 @@ struct DisplayUnit {
 // m^3 -> mL, m^3/s -> mL/s, Pa -> mmHg, Pa/s -> mmHg/s; any other unit is shown as is.
 DisplayUnit display_unit(const std::string& si_unit);
 
+// A named quantity of a beat (a global index, an observation): display_unit(si_unit), except the
+// ejection fraction (EF, unit 1) in % and durations within a beat (unit s) in ms.
+DisplayUnit quantity_display_unit(const std::string& name, const std::string& si_unit);
+
 // A number with `significant` significant digits in the shortest of fixed and scientific
 // notation ("5.3e+04", "0.289", "1051"); non-finite values as "nan", "inf", "-inf".
 std::string format_number(double value, int significant = 4);

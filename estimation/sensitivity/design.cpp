@@ -1,91 +1,48 @@
 #include "estimation/sensitivity/design.h"
 
+#include "estimation/enum_names.h"
+
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
+#include <numeric>
 #include <sstream>
 #include <stdexcept>
 
 namespace sigmaheart::estimation::sensitivity {
 
-std::string ParameterRange::validate() const {
-  std::ostringstream s;
-  const std::string who = "parameter '" + name + "': ";
-  if (!(std::isfinite(lower) && std::isfinite(upper) && lower < upper)) {
-    s << who << "needs finite bounds with lower < upper, got [" << lower << ", " << upper << "]";
-    return s.str();
-  }
-  if (!(std::isfinite(nominal) && nominal >= lower && nominal <= upper)) {
-    s << who << "nominal " << nominal << " lies outside [" << lower << ", " << upper << "]";
-    return s.str();
-  }
-  if (space == SamplingSpace::kEta) {
-    if (const std::string t = transform.validate(); !t.empty()) return who + t;
-    try {
-      const double a = transform.to_eta(lower);
-      const double b = transform.to_eta(upper);
-      if (!(std::isfinite(a) && std::isfinite(b) && a < b)) {
-        s << who << "the " << estimation::to_string(transform.kind)
-          << " transform maps [lower, upper] to a non-finite eta range";
-        return s.str();
-      }
-    } catch (const std::domain_error& e) {
-      return who + "[lower, upper] is outside the transform's range: " + e.what();
-    }
-  }
-  return {};
-}
+namespace {
+constexpr std::array<EnumName<StudyStatus>, 3> kStudyStatusNames{{
+    {StudyStatus::kOk, "ok"},
+    {StudyStatus::kFailedRuns, "failed-runs"},
+    {StudyStatus::kFailedNominal, "failed-nominal"},
+}};
+}  // namespace
 
-double ParameterRange::from_unit(double u) const {
-  if (space == SamplingSpace::kPhysical) return lower + u * (upper - lower);
-  const double a = transform.to_eta(lower);
-  const double b = transform.to_eta(upper);
-  return transform.to_theta(a + u * (b - a));
-}
+const char* to_string(StudyStatus status) { return enum_to_string(kStudyStatusNames, status); }
 
-double ParameterRange::to_unit(double theta) const {
-  if (space == SamplingSpace::kPhysical) return (theta - lower) / (upper - lower);
-  const double a = transform.to_eta(lower);
-  const double b = transform.to_eta(upper);
-  return (transform.to_eta(theta) - a) / (b - a);
-}
-
-std::string validate_ranges(const std::vector<ParameterRange>& ranges, const ForwardModel& model) {
-  if (ranges.empty()) return "no parameter ranges given";
-  if (static_cast<int>(ranges.size()) != model.input_size()) {
+std::string validate_prior(const Prior& prior, const ForwardModel& model) {
+  if (prior.size() == 0) return "no parameters to study";
+  if (prior.size() != model.input_size()) {
     std::ostringstream s;
-    s << ranges.size() << " parameter ranges for a model with " << model.input_size() << " inputs";
+    s << prior.size() << " parameter ranges for a model with " << model.input_size() << " inputs";
     return s.str();
   }
   const auto names = model.input_names();
-  for (size_t i = 0; i < ranges.size(); ++i) {
-    if (const std::string m = ranges[i].validate(); !m.empty()) return m;
-    if (i < names.size() && !ranges[i].name.empty() && ranges[i].name != names[i]) {
-      return "parameter range " + std::to_string(i) + " is named '" + ranges[i].name +
-             "' but the model's input " + std::to_string(i) + " is '" + names[i] + "'";
+  for (int i = 0; i < prior.size(); ++i) {
+    const PriorParameter& q = prior[i];
+    if (q.kind != PriorKind::kUniform) {
+      return "parameter '" + q.name + "': a sensitivity study samples uniform parameters";
+    }
+    if (const std::string m = q.validate(); !m.empty()) return m;
+    const auto k = static_cast<size_t>(i);
+    if (k < names.size() && !q.name.empty() && q.name != names[k]) {
+      return "parameter range " + std::to_string(i) + " is named '" + q.name +
+             "' but the model's input " + std::to_string(i) + " is '" + names[k] + "'";
     }
   }
   return {};
-}
-
-Eigen::MatrixXd unit_to_theta(const std::vector<ParameterRange>& ranges, const Eigen::MatrixXd& U) {
-  if (U.cols() != static_cast<Eigen::Index>(ranges.size())) {
-    throw std::invalid_argument("unit_to_theta: design has " + std::to_string(U.cols()) +
-                                " columns for " + std::to_string(ranges.size()) + " parameters");
-  }
-  Eigen::MatrixXd theta(U.rows(), U.cols());
-  for (Eigen::Index j = 0; j < U.cols(); ++j) {
-    const ParameterRange& r = ranges[static_cast<size_t>(j)];
-    for (Eigen::Index i = 0; i < U.rows(); ++i) theta(i, j) = r.from_unit(U(i, j));
-  }
-  return theta;
-}
-
-std::vector<std::string> range_names(const std::vector<ParameterRange>& ranges) {
-  std::vector<std::string> names;
-  names.reserve(ranges.size());
-  for (const auto& r : ranges) names.push_back(r.name);
-  return names;
 }
 
 std::vector<std::string> output_names(const ForwardModel& model) {
@@ -111,20 +68,41 @@ std::mt19937_64 make_stream(std::uint64_t seed, std::uint64_t index) {
   return std::mt19937_64(stream_seed(seed, index));
 }
 
-EnsembleResult evaluate_design(const ForwardModel& model, const Eigen::MatrixXd& thetas,
-                               const EnsembleOptions& options) {
+std::vector<bool> evaluate_design(const ForwardModel& model, const EnsembleOptions& options,
+                                  StudySummary& summary) {
   Ensemble ensemble(model, options);
-  EnsembleResult result = ensemble.evaluate(thetas);
-  // The Ensemble already turns non-finite outputs into kNonFinite; kept as an invariant here so
-  // that no study ever averages a NaN.
-  for (Eigen::Index i = 0; i < result.Z.rows(); ++i) {
-    auto& st = result.status[static_cast<size_t>(i)];
-    if (st.ok() && !result.Z.row(i).allFinite()) {
-      st = model::Status::Error(model::StatusCode::kNonFinite, "non-finite output");
-    }
-    if (!st.ok()) result.Z.row(i).setConstant(std::numeric_limits<double>::quiet_NaN());
+  EnsembleResult result = ensemble.evaluate(summary.thetas);
+  summary.Z = std::move(result.Z);
+  const auto runs = static_cast<int>(summary.thetas.rows());
+  std::vector<bool> ok(static_cast<size_t>(runs), true);
+  for (int run = 0; run < runs; ++run) {
+    model::Status st = result.status[static_cast<size_t>(run)];
+    // The Ensemble already turns non-finite outputs into kNonFinite; kept as an invariant here so
+    // that no study ever averages a NaN.
+    if (st.ok() && summary.Z.row(run).allFinite()) continue;
+    if (st.ok()) st = model::Status::Error(model::StatusCode::kNonFinite, "non-finite output");
+    summary.Z.row(run).setConstant(std::numeric_limits<double>::quiet_NaN());
+    ok[static_cast<size_t>(run)] = false;
+    FailedRun f;
+    f.run = run;
+    f.block = summary.layout.block.at(static_cast<size_t>(run));
+    f.design_row = summary.layout.row.at(static_cast<size_t>(run));
+    f.theta = summary.thetas.row(run).transpose();
+    f.status = std::move(st);
+    summary.failed_runs.push_back(std::move(f));
   }
-  return result;
+  return ok;
+}
+
+std::vector<int> rank_by(const Eigen::MatrixXd& score, int column) {
+  std::vector<int> order(static_cast<size_t>(score.rows()));
+  std::iota(order.begin(), order.end(), 0);
+  auto key = [&](int i) {
+    const double v = std::abs(score(i, column));
+    return std::isnan(v) ? -1.0 : v;
+  };
+  std::stable_sort(order.begin(), order.end(), [&](int i, int j) { return key(i) > key(j); });
+  return order;
 }
 
 std::pair<double, double> percentile_interval(std::vector<double> samples, double confidence) {

@@ -1,6 +1,7 @@
-// What every sensitivity study shares (ESTIMATION.md s.6): the range of each studied parameter,
-// the map from the unit cube of a design to physical theta, the random streams, and the running of
-// a design through an Ensemble.
+// What every sensitivity study shares (ESTIMATION.md s.6): the studied parameters are a Prior of
+// uniform parameters (estimation/prior.h: range, nominal, physical or eta space, and the map from
+// the unit cube of a design to theta), the random streams, the Summary fields every study fills,
+// and the running of a design through an Ensemble.
 #pragma once
 
 #include "estimation/ensemble.h"
@@ -19,32 +20,47 @@ namespace sigmaheart::estimation::sensitivity {
 
 using estimation::SamplingSpace;
 
+// How a study ended. Failed runs are never an exception: the summary says what was done.
+enum class StudyStatus {
+  kOk,              // every statistic computed (some runs may have failed and be listed)
+  kFailedRuns,      // failed runs the failure policy cannot absorb (Sobol' policy stop, Morris
+                    // with no complete trajectory): no statistics
+  kFailedNominal,   // one-at-a-time: the nominal run failed, no deltas
+};
+const char* to_string(StudyStatus status);
 
-// One studied parameter. The ForwardModel's inputs and the ranges correspond one to one, in order.
-struct ParameterRange {
-  std::string name;
-  std::string unit;      // SI, for reports
-  double nominal = 0.0;  // centre of one-at-a-time studies; must lie in [lower, upper]
-  double lower = 0.0;    // physical bounds of the study
-  double upper = 1.0;
-  SamplingSpace space = SamplingSpace::kPhysical;
-  Transform transform;   // used when space == kEta; lower and upper must map to finite eta
-
-  // Empty when consistent, else a message naming the parameter.
-  std::string validate() const;
-  // u in [0, 1] -> theta (uniform in the chosen space).
-  double from_unit(double u) const;
-  // theta -> u in [0, 1] (inverse of from_unit).
-  double to_unit(double theta) const;
+// The block label and the row within its block of every run of a design.
+struct DesignLayout {
+  std::string description;
+  std::vector<std::string> block;
+  std::vector<int> row;
 };
 
-// Empty when the ranges are valid and match the model's inputs (count and names), else a message.
-std::string validate_ranges(const std::vector<ParameterRange>& ranges, const ForwardModel& model);
+// One failed run of a study design.
+struct FailedRun {
+  int run = 0;         // row of the study's design (its `thetas`)
+  std::string block;   // which part of the design: "A", "AB_2 (x2)", "trajectory 3", "low x1" ...
+  int design_row = 0;  // row within that block (the step within a Morris trajectory)
+  Eigen::VectorXd theta;
+  model::Status status;
+};
 
-// Rows of U (runs x p, entries in [0, 1]) mapped to physical theta.
-Eigen::MatrixXd unit_to_theta(const std::vector<ParameterRange>& ranges, const Eigen::MatrixXd& U);
+// What every study's Summary carries: how it ended, the design and its outputs, the failed runs.
+struct StudySummary {
+  StudyStatus status = StudyStatus::kOk;
+  std::string message;  // why not ok, or what was done about failed runs; empty on a clean run
+  std::vector<std::string> parameters, outputs;
+  Eigen::MatrixXd thetas;  // runs x p, the design in physical units
+  Eigen::MatrixXd Z;       // runs x m, model outputs (NaN rows for failed runs)
+  DesignLayout layout;     // one block label and row per run
+  std::vector<FailedRun> failed_runs;
+  bool ok() const { return status == StudyStatus::kOk; }
+};
 
-std::vector<std::string> range_names(const std::vector<ParameterRange>& ranges);
+// Empty when the prior's parameters are uniform, valid and match the model's inputs (count and
+// names), else a message.
+std::string validate_prior(const Prior& prior, const ForwardModel& model);
+
 std::vector<std::string> output_names(const ForwardModel& model);
 
 // The seed of random stream `index` of a study seeded with `seed`: two rounds of SplitMix64
@@ -55,10 +71,14 @@ std::uint64_t stream_seed(std::uint64_t seed, std::uint64_t index);
 // A std::mt19937_64 seeded with stream_seed(seed, index).
 std::mt19937_64 make_stream(std::uint64_t seed, std::uint64_t index);
 
-// Runs every row of `thetas` (runs x inputs) through an Ensemble built on `model` with `options`.
-// Rows of failed runs are NaN; status holds one entry per run.
-EnsembleResult evaluate_design(const ForwardModel& model, const Eigen::MatrixXd& thetas,
-                               const EnsembleOptions& options);
+// Runs every row of summary.thetas through an Ensemble built on `model` with `options` (under MPI,
+// collectively: every rank gets the same outputs). Fills summary.Z (NaN rows for failed runs),
+// summary.failed_runs (block and row from summary.layout) and returns whether each run succeeded.
+std::vector<bool> evaluate_design(const ForwardModel& model, const EnsembleOptions& options,
+                                  StudySummary& summary);
+
+// Parameters of output `column` by decreasing |score(i, column)|, NaN last, ties in order.
+std::vector<int> rank_by(const Eigen::MatrixXd& score, int column);
 
 // A uniform integer in [0, n) from the top 32 bits of one draw (Lemire's multiply-shift; bias
 // below n / 2^32). Written out rather than std::uniform_int_distribution, whose algorithm the
@@ -66,15 +86,6 @@ EnsembleResult evaluate_design(const ForwardModel& model, const Eigen::MatrixXd&
 inline int uniform_index(std::mt19937_64& rng, int n) {
   return static_cast<int>(((rng() >> 32) * static_cast<std::uint64_t>(n)) >> 32);
 }
-
-// One failed run of a study design.
-struct FailedRun {
-  int run = 0;         // row of the study's design (its `thetas`)
-  std::string block;   // which part of the design: "A", "AB_2 (x2)", "trajectory 3", "low x1" ...
-  int design_row = 0;  // row within that block (the step within a Morris trajectory)
-  Eigen::VectorXd theta;
-  model::Status status;
-};
 
 // Percentile interval [q_low, q_high] of the finite values of `samples` (linear interpolation
 // between order statistics, Hyndman-Fan type 7). NaN when no value is finite.

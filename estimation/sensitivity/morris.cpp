@@ -83,41 +83,39 @@ Eigen::MatrixXd morris_design(int p, const MorrisOptions& options) {
   return U;
 }
 
-MorrisResult run_morris(const ForwardModel& model, const std::vector<ParameterRange>& ranges,
-                        const MorrisOptions& options) {
-  if (const std::string m = validate_ranges(ranges, model); !m.empty()) {
+DesignLayout morris_layout(int trajectories, int p) {
+  DesignLayout l;
+  l.description = "r (p + 1) runs, trajectory-major; row = step within the trajectory";
+  for (int t = 0; t < trajectories; ++t) {
+    for (int s = 0; s <= p; ++s) {
+      l.block.push_back("trajectory " + std::to_string(t));
+      l.row.push_back(s);
+    }
+  }
+  return l;
+}
+
+MorrisSummary run_morris(const ForwardModel& model, const Prior& prior, const MorrisOptions& options) {
+  if (const std::string m = validate_prior(prior, model); !m.empty()) {
     throw std::invalid_argument("Morris study: " + m);
   }
   if (const std::string m = options.validate(); !m.empty()) throw std::invalid_argument(m);
-  const int p = static_cast<int>(ranges.size());
+  const int p = prior.size();
   const int r = options.trajectories;
 
-  MorrisResult res;
-  res.parameters = range_names(ranges);
+  MorrisSummary res;
+  res.parameters = prior.names();
   res.outputs = output_names(model);
   const int m = static_cast<int>(res.outputs.size());
   res.trajectories_requested = r;
   res.unit_design = morris_design(p, options);
-  res.thetas = unit_to_theta(ranges, res.unit_design);
-  EnsembleResult ens = evaluate_design(model, res.thetas, options.ensemble);
-  res.Z = ens.Z;
+  res.thetas = prior.unit_to_theta(res.unit_design);
+  res.layout = morris_layout(r, p);
+  const std::vector<bool> ok_run = evaluate_design(model, options.ensemble, res);
 
   for (int t = 0; t < r; ++t) {
     bool ok = true;
-    for (int s = 0; s <= p; ++s) {
-      const int run = t * (p + 1) + s;
-      const model::Status& st = ens.status[static_cast<size_t>(run)];
-      if (st.ok() && res.Z.row(run).allFinite()) continue;
-      ok = false;
-      FailedRun f;
-      f.run = run;
-      f.block = "trajectory " + std::to_string(t);
-      f.design_row = s;
-      f.theta = res.thetas.row(run).transpose();
-      f.status = st.ok() ? model::Status::Error(model::StatusCode::kNonFinite, "non-finite output")
-                         : st;
-      res.failed_runs.push_back(std::move(f));
-    }
+    for (int s = 0; s <= p; ++s) ok = ok && ok_run[static_cast<size_t>(t * (p + 1) + s)];
     if (!ok) {
       res.dropped_trajectories.push_back(t);
       continue;
@@ -142,12 +140,11 @@ MorrisResult run_morris(const ForwardModel& model, const std::vector<ParameterRa
   const Eigen::MatrixXd nan = Eigen::MatrixXd::Constant(p, m, kNaN);
   res.mu_low = res.mu_high = res.mu_star_low = res.mu_star_high = res.sigma_low = res.sigma_high = nan;
   if (used == 0) {
-    res.valid = false;
+    res.status = StudyStatus::kFailedRuns;
     res.message += res.message.empty() ? "no trajectory" : "; no trajectory left";
     res.mu = res.mu_star = res.sigma = nan;
     return res;
   }
-  res.valid = true;
   std::vector<int> all(static_cast<size_t>(used));
   std::iota(all.begin(), all.end(), 0);
   const Stats s = statistics(res.effects, all);
@@ -181,15 +178,7 @@ MorrisResult run_morris(const ForwardModel& model, const std::vector<ParameterRa
   return res;
 }
 
-std::vector<int> MorrisResult::ranking(int output) const {
-  std::vector<int> order(parameters.size());
-  std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(),
-                   [&](int a, int b) { return mu_star(a, output) > mu_star(b, output); });
-  return order;
-}
-
-std::string MorrisResult::report() const {
+std::string MorrisSummary::report() const {
   std::ostringstream s;
   s << "Morris elementary effects: " << parameters.size() << " parameters, " << outputs.size()
     << " outputs, " << used_trajectories.size() << " of " << trajectories_requested
@@ -200,7 +189,7 @@ std::string MorrisResult::report() const {
     s << "  failed: " << f.block << " step " << f.design_row << ": "
       << model::to_string(f.status.code) << " " << f.status.message << "\n";
   }
-  if (!valid) return s.str() + "INVALID: no statistics\n";
+  if (!ok()) return s.str() + "INVALID: no statistics\n";
   s << std::setprecision(4);
   for (int k = 0; k < static_cast<int>(outputs.size()); ++k) {
     s << "output '" << outputs[static_cast<size_t>(k)] << "'\n";

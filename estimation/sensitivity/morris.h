@@ -5,7 +5,7 @@
 // even. Trajectory t (stream make_stream(seed, t)): a random direction d_i = +-1 per parameter,
 // a random base level per parameter from which a step d_i Delta stays on the grid, a random
 // order of the parameters; step s moves parameter order[s] by d_i Delta, Delta = L / (2 (L - 1))
-// (Morris 1991, s.3). Grid points map to physical theta through each ParameterRange (uniform in
+// (Morris 1991, s.3). Grid points map to physical theta through each uniform PriorParameter (in
 // the physical or eta space). Runs: r (p + 1), trajectory-major.
 //
 // Elementary effects are in unit-cube coordinates: EE_i = (y(x + d_i Delta e_i) - y(x)) / (d_i Delta),
@@ -38,32 +38,30 @@ struct MorrisOptions {
   std::string validate() const;
 };
 
-struct MorrisResult {
-  bool valid = false;  // false when no trajectory survived
-  std::string message;
-  std::vector<std::string> parameters, outputs;
+struct MorrisSummary : StudySummary {
+  // status kFailedRuns when no trajectory survived. Layout: "trajectory <t>", row = step.
   int trajectories_requested = 0;
   std::vector<int> used_trajectories;     // indices of trajectories that entered the statistics
   std::vector<int> dropped_trajectories;  // trajectories dropped for a failed run
-  std::vector<FailedRun> failed_runs;
   Eigen::MatrixXd unit_design;  // r (p + 1) x p, grid points in [0, 1]
-  Eigen::MatrixXd thetas;       // r (p + 1) x p, physical
-  Eigen::MatrixXd Z;            // r (p + 1) x m
   std::vector<Eigen::MatrixXd> effects;  // per used trajectory: p x m elementary effects
   // p x m tables (parameter x output), and their bootstrap intervals (NaN without bootstrap).
   Eigen::MatrixXd mu, mu_star, sigma;
   Eigen::MatrixXd mu_low, mu_high, mu_star_low, mu_star_high, sigma_low, sigma_high;
 
-  // Parameters of one output by decreasing mu*.
-  std::vector<int> ranking(int output) const;
+  // Parameters of one output by decreasing mu* (NaN last).
+  std::vector<int> ranking(int output) const { return rank_by(mu_star, output); }
   std::string report() const;
 };
 
 // The unit-cube design (r (p + 1) rows, trajectory-major).
 Eigen::MatrixXd morris_design(int p, const MorrisOptions& options);
 
-// Throws std::invalid_argument on invalid options or ranges; run failures drop trajectories.
-MorrisResult run_morris(const ForwardModel& model, const std::vector<ParameterRange>& ranges,
-                        const MorrisOptions& options);
+// Block labels of the r (p + 1) runs.
+DesignLayout morris_layout(int trajectories, int p);
+
+// Runs the design through an Ensemble (options.ensemble). Throws std::invalid_argument on invalid
+// options or prior (before any run); run failures drop trajectories.
+MorrisSummary run_morris(const ForwardModel& model, const Prior& prior, const MorrisOptions& options);
 
 }  // namespace sigmaheart::estimation::sensitivity

@@ -1,6 +1,9 @@
 #include "estimation/sensitivity/oat.h"
 
+#include "estimation/enum_names.h"
+
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <iomanip>
 #include <limits>
@@ -14,18 +17,16 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 }
 
-const char* to_string(OatMode mode) {
-  switch (mode) {
-    case OatMode::kRange: return "range";
-    case OatMode::kRelative: return "relative";
-  }
-  return "unknown";
-}
+namespace {
+constexpr std::array<EnumName<OatMode>, 2> kOatModeNames{{
+    {OatMode::kRange, "range"},
+    {OatMode::kRelative, "relative"},
+}};
+}  // namespace
 
+const char* to_string(OatMode mode) { return enum_to_string(kOatModeNames, mode); }
 std::optional<OatMode> parse_oat_mode(const std::string& text) {
-  if (text == "range") return OatMode::kRange;
-  if (text == "relative") return OatMode::kRelative;
-  return std::nullopt;
+  return enum_from_string(kOatModeNames, text);
 }
 
 std::string OatOptions::validate() const {
@@ -35,33 +36,46 @@ std::string OatOptions::validate() const {
   return ensemble.validate();
 }
 
-Eigen::MatrixXd oat_design(const std::vector<ParameterRange>& ranges, const OatOptions& options) {
-  const int p = static_cast<int>(ranges.size());
-  Eigen::VectorXd nominal(p);
-  for (int i = 0; i < p; ++i) nominal(i) = ranges[static_cast<size_t>(i)].nominal;
+Eigen::MatrixXd oat_design(const Prior& prior, const OatOptions& options) {
+  const int p = prior.size();
+  const Eigen::VectorXd nominal = prior.nominal_theta();
   Eigen::MatrixXd thetas = nominal.transpose().replicate(2 * p + 1, 1);
   for (int i = 0; i < p; ++i) {
-    const ParameterRange& r = ranges[static_cast<size_t>(i)];
+    const PriorParameter& r = prior[i];
     const bool rel = options.mode == OatMode::kRelative;
-    thetas(1 + 2 * i, i) = rel ? r.nominal * (1.0 - options.relative_change) : r.lower;
-    thetas(2 + 2 * i, i) = rel ? r.nominal * (1.0 + options.relative_change) : r.upper;
+    thetas(1 + 2 * i, i) = rel ? r.theta_nominal * (1.0 - options.relative_change) : r.lower;
+    thetas(2 + 2 * i, i) = rel ? r.theta_nominal * (1.0 + options.relative_change) : r.upper;
   }
   return thetas;
 }
 
-OatResult run_oat(const ForwardModel& model, const std::vector<ParameterRange>& ranges,
-                  const OatOptions& options) {
-  if (const std::string m = validate_ranges(ranges, model); !m.empty()) {
+DesignLayout oat_layout(const std::vector<std::string>& names) {
+  DesignLayout l;
+  l.description = "2p + 1 runs: nominal, then low and high of each parameter in order";
+  l.block.push_back("nominal");
+  l.row.push_back(0);
+  for (const auto& n : names) {
+    l.block.push_back("low " + n);
+    l.row.push_back(0);
+    l.block.push_back("high " + n);
+    l.row.push_back(0);
+  }
+  return l;
+}
+
+OatSummary run_oat(const ForwardModel& model, const Prior& prior, const OatOptions& options) {
+  if (const std::string m = validate_prior(prior, model); !m.empty()) {
     throw std::invalid_argument("one-at-a-time study: " + m);
   }
   if (const std::string m = options.validate(); !m.empty()) throw std::invalid_argument(m);
-  const int p = static_cast<int>(ranges.size());
+  const int p = prior.size();
 
-  OatResult r;
-  r.parameters = range_names(ranges);
+  OatSummary r;
+  r.parameters = prior.names();
   r.outputs = output_names(model);
   const int m = static_cast<int>(r.outputs.size());
-  r.thetas = oat_design(ranges, options);
+  r.thetas = oat_design(prior, options);
+  r.layout = oat_layout(r.parameters);
   r.theta_nominal = r.thetas.row(0).transpose();
   r.theta_low.resize(p);
   r.theta_high.resize(p);
@@ -69,22 +83,7 @@ OatResult run_oat(const ForwardModel& model, const std::vector<ParameterRange>& 
     r.theta_low(i) = r.thetas(1 + 2 * i, i);
     r.theta_high(i) = r.thetas(2 + 2 * i, i);
   }
-  EnsembleResult ens = evaluate_design(model, r.thetas, options.ensemble);
-  r.Z = ens.Z;
-  for (int run = 0; run < r.thetas.rows(); ++run) {
-    const model::Status& st = ens.status[static_cast<size_t>(run)];
-    if (st.ok() && r.Z.row(run).allFinite()) continue;
-    r.Z.row(run).setConstant(kNaN);
-    FailedRun f;
-    f.run = run;
-    f.block = run == 0 ? std::string("nominal")
-                       : std::string(run % 2 == 1 ? "low " : "high ") +
-                             r.parameters[static_cast<size_t>((run - 1) / 2)];
-    f.theta = r.thetas.row(run).transpose();
-    f.status = st.ok() ? model::Status::Error(model::StatusCode::kNonFinite, "non-finite output")
-                       : st;
-    r.failed_runs.push_back(std::move(f));
-  }
+  evaluate_design(model, options.ensemble, r);
 
   r.z_nominal = r.Z.row(0).transpose();
   r.z_low.resize(p, m);
@@ -94,18 +93,18 @@ OatResult run_oat(const ForwardModel& model, const std::vector<ParameterRange>& 
     r.z_high.row(i) = r.Z.row(2 + 2 * i);
   }
   if (!r.failed_runs.empty() && r.failed_runs.front().run == 0) {
-    r.valid = false;
+    r.status = StudyStatus::kFailedNominal;
     r.message = "the nominal run failed: " + r.failed_runs.front().status.message;
-    r.delta_low = r.delta_high = r.normalised = Eigen::MatrixXd::Constant(p, m, kNaN);
+    r.delta_low = r.delta_high = r.normalised = r.swing = Eigen::MatrixXd::Constant(p, m, kNaN);
     return r;
   }
-  r.valid = true;
   if (!r.failed_runs.empty()) {
     r.message = std::to_string(r.failed_runs.size()) +
                 " runs failed; their parameters' entries are NaN";
   }
   r.delta_low = r.z_low.rowwise() - r.z_nominal.transpose();
   r.delta_high = r.z_high.rowwise() - r.z_nominal.transpose();
+  r.swing = (r.delta_high - r.delta_low).cwiseAbs();
   r.normalised.resize(p, m);
   for (int i = 0; i < p; ++i) {
     const double dtheta = (r.theta_high(i) - r.theta_low(i)) / r.theta_nominal(i);
@@ -117,18 +116,18 @@ OatResult run_oat(const ForwardModel& model, const std::vector<ParameterRange>& 
   return r;
 }
 
-std::vector<TornadoBar> OatResult::tornado(int output) const {
+std::vector<TornadoBar> OatSummary::tornado(int output) const {
   if (output < 0 || output >= static_cast<int>(outputs.size())) {
-    throw std::out_of_range("OatResult::tornado: no output " + std::to_string(output));
+    throw std::out_of_range("OatSummary::tornado: no output " + std::to_string(output));
   }
   std::vector<TornadoBar> bars;
-  if (!valid) return bars;
+  if (!ok()) return bars;
   for (int i = 0; i < static_cast<int>(parameters.size()); ++i) {
     TornadoBar b;
     b.parameter = i;
     b.delta_low = delta_low(i, output);
     b.delta_high = delta_high(i, output);
-    b.swing = std::abs(z_high(i, output) - z_low(i, output));
+    b.swing = swing(i, output);
     bars.push_back(b);
   }
   std::stable_sort(bars.begin(), bars.end(), [](const TornadoBar& a, const TornadoBar& b) {
@@ -139,7 +138,7 @@ std::vector<TornadoBar> OatResult::tornado(int output) const {
   return bars;
 }
 
-std::string OatResult::report() const {
+std::string OatSummary::report() const {
   std::ostringstream s;
   s << "One-at-a-time study: " << parameters.size() << " parameters, " << outputs.size()
     << " outputs, " << thetas.rows() << " runs\n";
@@ -148,7 +147,7 @@ std::string OatResult::report() const {
     s << "  failed: " << f.block << ": " << model::to_string(f.status.code) << " "
       << f.status.message << "\n";
   }
-  if (!valid) return s.str() + "INVALID: no deltas\n";
+  if (!ok()) return s.str() + "INVALID: no deltas\n";
   s << std::setprecision(4);
   for (int k = 0; k < static_cast<int>(outputs.size()); ++k) {
     s << "output '" << outputs[static_cast<size_t>(k)] << "' (nominal " << z_nominal(k)

@@ -1,6 +1,9 @@
 #include "estimation/sensitivity/sobol_indices.h"
 
+#include "estimation/enum_names.h"
+
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <iomanip>
 #include <limits>
@@ -54,18 +57,19 @@ Indices estimate_on(const Eigen::MatrixXd& Z, int p, int N, const std::vector<in
 
 }  // namespace
 
-const char* to_string(SobolFailurePolicy policy) {
-  switch (policy) {
-    case SobolFailurePolicy::kStop: return "stop";
-    case SobolFailurePolicy::kImputeMean: return "impute-mean";
-  }
-  return "unknown";
-}
+namespace {
+constexpr std::array<EnumName<SobolFailurePolicy>, 3> kFailurePolicyNames{{
+    {SobolFailurePolicy::kStop, "stop"},
+    {SobolFailurePolicy::kImputeMean, "impute-mean"},
+    {SobolFailurePolicy::kImputeMean, "impute_mean"},
+}};
+}  // namespace
 
+const char* to_string(SobolFailurePolicy policy) {
+  return enum_to_string(kFailurePolicyNames, policy);
+}
 std::optional<SobolFailurePolicy> parse_sobol_failure_policy(const std::string& text) {
-  if (text == "stop") return SobolFailurePolicy::kStop;
-  if (text == "impute-mean" || text == "impute_mean") return SobolFailurePolicy::kImputeMean;
-  return std::nullopt;
+  return enum_from_string(kFailurePolicyNames, text);
 }
 
 std::string SobolOptions::validate(int p) const {
@@ -120,6 +124,7 @@ SobolEstimate sobol_estimate(const Eigen::MatrixXd& Z, int p, int N, int n_used,
   e.S1 = point.S1;
   e.ST = point.ST;
   e.variance = point.V;
+  e.output_std = point.V.cwiseMax(0.0).cwiseSqrt();
   e.S1_low = e.S1_high = e.ST_low = e.ST_high = Eigen::MatrixXd::Constant(p, m, kNaN);
   const int B = options.bootstrap_samples;
   if (B == 0) return e;
@@ -149,41 +154,38 @@ SobolEstimate sobol_estimate(const Eigen::MatrixXd& Z, int p, int N, int n_used,
   return e;
 }
 
-SobolResult run_sobol(const ForwardModel& model, const std::vector<ParameterRange>& ranges,
-                      const SobolOptions& options) {
-  if (const std::string m = validate_ranges(ranges, model); !m.empty()) {
+DesignLayout sobol_layout(int N, const std::vector<std::string>& names) {
+  DesignLayout l;
+  l.description = "N (p + 2) runs in blocks A, B, AB_1..AB_p (AB_i: A with column i from B); "
+                  "row = design row j in 0..N-1";
+  auto add = [&](const std::string& b) {
+    for (int j = 0; j < N; ++j) {
+      l.block.push_back(b);
+      l.row.push_back(j);
+    }
+  };
+  add("A");
+  add("B");
+  for (size_t i = 0; i < names.size(); ++i) add("AB_" + std::to_string(i + 1) + " (" + names[i] + ")");
+  return l;
+}
+
+SobolSummary run_sobol(const ForwardModel& model, const Prior& prior, const SobolOptions& options) {
+  if (const std::string m = validate_prior(prior, model); !m.empty()) {
     throw std::invalid_argument("Sobol' study: " + m);
   }
-  const int p = static_cast<int>(ranges.size());
+  const int p = prior.size();
   if (const std::string m = options.validate(p); !m.empty()) throw std::invalid_argument(m);
   const int N = options.base_samples;
 
-  SobolResult r;
-  r.parameters = range_names(ranges);
+  SobolSummary r;
+  r.parameters = prior.names();
   r.outputs = output_names(model);
   r.N = N;
   r.runs = N * (p + 2);
-  r.thetas = unit_to_theta(ranges, saltelli_design(p, N, options.scrambling, options.seed));
-  EnsembleResult ens = evaluate_design(model, r.thetas, options.ensemble);
-  r.Z = ens.Z;
-
-  std::vector<char> ok(static_cast<size_t>(r.runs), 1);
-  for (int run = 0; run < r.runs; ++run) {
-    const model::Status& st = ens.status[static_cast<size_t>(run)];
-    if (st.ok() && r.Z.row(run).allFinite()) continue;
-    ok[static_cast<size_t>(run)] = 0;
-    FailedRun f;
-    f.run = run;
-    const int block = run / N;
-    f.design_row = run % N;
-    f.block = block == 0 ? "A" : block == 1 ? "B"
-                         : "AB_" + std::to_string(block - 1) + " (" +
-                               r.parameters[static_cast<size_t>(block - 2)] + ")";
-    f.theta = r.thetas.row(run).transpose();
-    f.status = st.ok() ? model::Status::Error(model::StatusCode::kNonFinite, "non-finite output")
-                       : st;
-    r.failed_runs.push_back(std::move(f));
-  }
+  r.thetas = prior.unit_to_theta(saltelli_design(p, N, options.scrambling, options.seed));
+  r.layout = sobol_layout(N, r.parameters);
+  const std::vector<bool> ok = evaluate_design(model, options.ensemble, r);
 
   Eigen::MatrixXd Zuse = r.Z;
   if (!r.failed_runs.empty()) {
@@ -193,7 +195,7 @@ SobolResult run_sobol(const ForwardModel& model, const std::vector<ParameterRang
     if (options.failure_policy == SobolFailurePolicy::kStop || all_failed) {
       s << "; policy '" << to_string(options.failure_policy)
         << "': no indices computed (a Saltelli design cannot drop rows)";
-      r.valid = false;
+      r.status = StudyStatus::kFailedRuns;
       r.message = s.str();
       return r;
     }
@@ -213,7 +215,6 @@ SobolResult run_sobol(const ForwardModel& model, const std::vector<ParameterRang
     r.message = s.str();
   }
 
-  r.valid = true;
   for (int level = 0, n = N; level < options.convergence_levels && n >= 16; ++level, n /= 2) {
     r.convergence.push_back(sobol_estimate(Zuse, p, N, n, options));
   }
@@ -224,7 +225,7 @@ SobolResult run_sobol(const ForwardModel& model, const std::vector<ParameterRang
   return r;
 }
 
-std::string SobolResult::report() const {
+std::string SobolSummary::report() const {
   std::ostringstream s;
   s << "Sobol' indices: " << parameters.size() << " parameters, " << outputs.size()
     << " outputs, N = " << N << ", " << runs << " runs (Saltelli 2010 S1, Jansen ST)\n";
@@ -240,7 +241,7 @@ std::string SobolResult::report() const {
     }
     if (shown < failed_runs.size()) s << "  ... " << failed_runs.size() - shown << " more\n";
   }
-  if (!valid) {
+  if (!ok()) {
     s << "INVALID: no indices\n";
     return s.str();
   }

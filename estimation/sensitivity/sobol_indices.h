@@ -38,7 +38,7 @@
 namespace sigmaheart::estimation::sensitivity {
 
 enum class SobolFailurePolicy {
-  // Default: no indices are computed; the result is flagged invalid and lists the failed runs
+  // Default: no indices are computed; the summary has status kFailedRuns and lists the failed runs
   // (design row, block, parameters, message) so they can be investigated or the ranges narrowed.
   kStop,
   // Each failed run's outputs are replaced by the mean of that output over the successful runs of
@@ -68,18 +68,15 @@ struct SobolEstimate {
   Eigen::MatrixXd S1, ST;
   Eigen::MatrixXd S1_low, S1_high, ST_low, ST_high;  // bootstrap interval (NaN without bootstrap)
   Eigen::VectorXd variance;               // m, output variance estimate
+  Eigen::VectorXd output_std;             // m, sqrt(max(variance, 0))
 };
 
-struct SobolResult {
-  bool valid = false;   // false: indices not computed (see message and failed_runs)
+struct SobolSummary : StudySummary {
+  // status kFailedRuns: indices not computed (failure_policy stop, or every run failed; see
+  // message and failed_runs). Layout: "A", "B", "AB_<i> (<name>)", row = design row j.
   bool imputed = false; // true: some outputs were imputed (see failed_runs)
-  std::string message;  // why invalid, or what was imputed; empty on a clean run
-  std::vector<std::string> parameters, outputs;
   int N = 0;
   int runs = 0;
-  Eigen::MatrixXd thetas;  // runs x p, the design in physical units
-  Eigen::MatrixXd Z;       // runs x m, model outputs (NaN for failed runs, before imputation)
-  std::vector<FailedRun> failed_runs;
 
   SobolEstimate estimate;                // the full design (n = N)
   std::vector<SobolEstimate> convergence;  // n = N, N/2, ... (first entry equals `estimate`)
@@ -87,6 +84,8 @@ struct SobolResult {
   // Outputs whose variance is zero (indices NaN for them).
   std::vector<std::string> constant_outputs;
 
+  // Parameters of one output by decreasing ST (NaN last).
+  std::vector<int> ranking(int output) const { return rank_by(estimate.ST, output); }
   // A few lines: design size, failures and policy, and per output the S1/ST table.
   std::string report() const;
 };
@@ -94,10 +93,13 @@ struct SobolResult {
 // The unit-cube Saltelli design: N (p + 2) rows, block order A, B, AB_1..AB_p.
 Eigen::MatrixXd saltelli_design(int p, int N, Scrambling scrambling, std::uint64_t seed);
 
-// Runs the design through an Ensemble and estimates the indices. Throws std::invalid_argument on
-// invalid options or ranges (before any run); run failures are handled by the policy.
-SobolResult run_sobol(const ForwardModel& model, const std::vector<ParameterRange>& ranges,
-                      const SobolOptions& options);
+// Block labels of the N (p + 2) runs.
+DesignLayout sobol_layout(int N, const std::vector<std::string>& names);
+
+// Runs the design through an Ensemble (options.ensemble) and estimates the indices. Throws
+// std::invalid_argument on invalid options or prior (before any run); run failures are handled by
+// the policy and reported in the summary's status.
+SobolSummary run_sobol(const ForwardModel& model, const Prior& prior, const SobolOptions& options);
 
 // The estimators alone, from the outputs of an already-run design (runs x m, block order above,
 // all finite). Exposed for tests and for designs run elsewhere.

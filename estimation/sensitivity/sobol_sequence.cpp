@@ -1,7 +1,9 @@
 #include "estimation/sensitivity/sobol_sequence.h"
 
 #include "estimation/sensitivity/design.h"
+#include "estimation/enum_names.h"
 
+#include <array>
 #include <bit>
 #include <stdexcept>
 
@@ -123,20 +125,19 @@ std::uint32_t apply(const std::array<std::uint32_t, 32>& rows, std::uint32_t x) 
 
 }  // namespace
 
-const char* to_string(Scrambling scrambling) {
-  switch (scrambling) {
-    case Scrambling::kNone: return "none";
-    case Scrambling::kLinearMatrixAndShift: return "lms";
-  }
-  return "unknown";
-}
+namespace {
+constexpr std::array<EnumName<Scrambling>, 5> kScramblingNames{{
+    {Scrambling::kNone, "none"},
+    {Scrambling::kLinearMatrixAndShift, "lms"},
+    {Scrambling::kNone, "off"},
+    {Scrambling::kLinearMatrixAndShift, "matousek"},
+    {Scrambling::kLinearMatrixAndShift, "linear-matrix-shift"},
+}};
+}  // namespace
 
+const char* to_string(Scrambling scrambling) { return enum_to_string(kScramblingNames, scrambling); }
 std::optional<Scrambling> parse_scrambling(const std::string& text) {
-  if (text == "none" || text == "off") return Scrambling::kNone;
-  if (text == "lms" || text == "matousek" || text == "linear-matrix-shift") {
-    return Scrambling::kLinearMatrixAndShift;
-  }
-  return std::nullopt;
+  return enum_from_string(kScramblingNames, text);
 }
 
 std::string SobolSequenceOptions::validate() const {

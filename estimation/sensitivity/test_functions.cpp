@@ -50,14 +50,13 @@ ExactIndices ishigami_exact(double a, double b) {
   return e;
 }
 
-std::vector<ParameterRange> ishigami_ranges() {
-  std::vector<ParameterRange> r;
+Prior ishigami_prior() {
+  Prior prior;
   for (const char* n : {"x1", "x2", "x3"}) {
-    r.push_back(ParameterRange{.name = std::string(n), .unit = std::string("1"), .nominal = 0.0,
-                               .lower = -std::numbers::pi, .upper = std::numbers::pi,
-                               .space = SamplingSpace::kPhysical, .transform = Transform{}});
+    prior.parameters.push_back(
+        PriorParameter::uniform(n, "1", -std::numbers::pi, std::numbers::pi, 0.0));
   }
-  return r;
+  return prior;
 }
 
 GFunctionModel::GFunctionModel(Eigen::VectorXd a) : a_(std::move(a)) {
@@ -105,14 +104,12 @@ ExactIndices g_function_exact(const Eigen::VectorXd& a) {
   return e;
 }
 
-std::vector<ParameterRange> g_function_ranges(int p) {
-  std::vector<ParameterRange> r;
+Prior g_function_prior(int p) {
+  Prior prior;
   for (int i = 0; i < p; ++i) {
-    r.push_back(ParameterRange{.name = input_name(i), .unit = std::string("1"), .nominal = 0.5,
-                               .lower = 0.0, .upper = 1.0, .space = SamplingSpace::kPhysical,
-                               .transform = Transform{}});
+    prior.parameters.push_back(PriorParameter::uniform(input_name(i), "1", 0.0, 1.0, 0.5));
   }
-  return r;
+  return prior;
 }
 
 Eigen::VectorXd g_function_default_a() {

@@ -42,8 +42,8 @@ class IshigamiModel final : public ForwardModel {
 // V = a^2/8 + b pi^4/5 + b^2 pi^8/18 + 1/2, V1 = (1 + b pi^4/5)^2 / 2, V2 = a^2/8,
 // V13 = 8 b^2 pi^8 / 225, V3 = 0; ST1 = (V1 + V13)/V, ST2 = V2/V, ST3 = V13/V.
 ExactIndices ishigami_exact(double a = 7.0, double b = 0.1);
-// The study ranges of the Ishigami inputs: uniform on [-pi, pi], nominal 0.
-std::vector<ParameterRange> ishigami_ranges();
+// The study prior of the Ishigami inputs: uniform on [-pi, pi], nominal 0.
+Prior ishigami_prior();
 
 // Sobol' G-function (Sobol' 1993; Saltelli & Sobol' 1995): y = prod_i (|4 x_i - 2| + a_i)/(1 + a_i),
 // x_i ~ U[0, 1]. One output "y" [1]; inputs "x1".."xp". a_i >= 0: small a_i = important input.
@@ -64,8 +64,8 @@ class GFunctionModel final : public ForwardModel {
 // Exact indices of the G-function (Sobol' 2001, Math Comput Simul 55:271): V_i = 1/(3 (1 + a_i)^2),
 // V = prod (1 + V_i) - 1, S1_i = V_i / V, ST_i = V_i prod_{j != i} (1 + V_j) / V; mean 1.
 ExactIndices g_function_exact(const Eigen::VectorXd& a);
-// The study ranges of the G-function inputs: uniform on [0, 1], nominal 0.5.
-std::vector<ParameterRange> g_function_ranges(int p);
+// The study prior of the G-function inputs: uniform on [0, 1], nominal 0.5.
+Prior g_function_prior(int p);
 // The classic a = (0, 1, 4.5, 9, 99, 99, 99, 99) of Saltelli et al. 2010.
 Eigen::VectorXd g_function_default_a();
 

@@ -1,8 +1,11 @@
 #include "estimation/specificity/specificity.h"
 
+#include "estimation/enum_names.h"
+
 #include <Eigen/Cholesky>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <iomanip>
 #include <limits>
@@ -176,8 +179,67 @@ SpecificityResult compare_groups(const std::vector<CaseEstimate>& cases,
   return r;
 }
 
-SpecificityResult run_specificity(const std::vector<CohortCase>& cases, const CalibrateFn& calibrate,
-                                  const SpecificityOptions& options) {
+const char* to_string(SpecificityStatus status) {
+  return enum_to_string(std::array<EnumName<SpecificityStatus>, 2>{{
+                            {SpecificityStatus::kOk, "ok"},
+                            {SpecificityStatus::kNoStatistics, "no-statistics"},
+                        }},
+                        status);
+}
+
+double CaseCalibration::relative_error_percent(const Eigen::VectorXd& scale) const {
+  if (fitted.size() == 0 || fitted.size() != observed.size()) return kNaN;
+  const bool scaled = scale.size() == observed.size();
+  const Eigen::VectorXd f = scaled ? Eigen::VectorXd(fitted.cwiseProduct(scale)) : fitted;
+  const Eigen::VectorXd o = scaled ? Eigen::VectorXd(observed.cwiseProduct(scale)) : observed;
+  return 100.0 * ((f - o).cwiseAbs().array() / o.cwiseAbs().array().max(1e-300)).mean();
+}
+
+bool SpecificitySummary::case_ok(int i) const {
+  const CaseCalibration& c = calibrations.at(static_cast<size_t>(i));
+  return c.status.ok() && c.mean.size() == static_cast<Eigen::Index>(parameter_names.size());
+}
+
+std::string SpecificitySummary::case_status(int i) const {
+  if (case_ok(i)) return "ok";
+  const CaseCalibration& c = calibrations.at(static_cast<size_t>(i));
+  return c.termination + ": " + (c.message.empty() ? c.status.message : c.message);
+}
+
+namespace {
+template <class F>
+Eigen::MatrixXd per_case(const SpecificitySummary& s, F row) {
+  const auto n = static_cast<Eigen::Index>(s.cohort.size());
+  const auto p = static_cast<Eigen::Index>(s.parameter_names.size());
+  Eigen::MatrixXd out = Eigen::MatrixXd::Constant(n, p, kNaN);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const Eigen::VectorXd v = row(static_cast<int>(i));
+    if (v.size() == p) out.row(i) = v.transpose();
+  }
+  return out;
+}
+}  // namespace
+
+Eigen::MatrixXd SpecificitySummary::means() const {
+  return per_case(*this, [&](int i) {
+    return case_ok(i) ? calibrations[static_cast<size_t>(i)].mean : Eigen::VectorXd();
+  });
+}
+Eigen::MatrixXd SpecificitySummary::sds() const {
+  return per_case(*this, [&](int i) {
+    return case_ok(i) ? calibrations[static_cast<size_t>(i)].sd : Eigen::VectorXd();
+  });
+}
+Eigen::MatrixXd SpecificitySummary::truths() const {
+  return per_case(*this, [&](int i) { return cohort[static_cast<size_t>(i)].truth; });
+}
+bool SpecificitySummary::any_truth() const {
+  const Eigen::MatrixXd t = truths();
+  return (t.array() == t.array()).any();
+}
+
+SpecificitySummary run_specificity(const std::vector<CohortCase>& cases, const CalibrateFn& calibrate,
+                                   const SpecificityOptions& options) {
   if (const std::string m = options.validate(); !m.empty()) throw std::invalid_argument(m);
   if (!calibrate) throw std::invalid_argument("specificity study: no calibration given");
   const int n = static_cast<int>(cases.size());
@@ -225,9 +287,22 @@ SpecificityResult run_specificity(const std::vector<CohortCase>& cases, const Ca
       failure.push_back(cal.status);
     }
   }
-  SpecificityResult r = compare_groups(estimates, options);
+  SpecificitySummary r;
+  try {
+    static_cast<SpecificityResult&>(r) = compare_groups(estimates, options);
+  } catch (const std::invalid_argument& e) {
+    r.status = SpecificityStatus::kNoStatistics;
+    r.message = e.what();
+  }
+  if (r.ok() && r.cases.empty()) {
+    r.status = SpecificityStatus::kNoStatistics;
+    r.message = "no case was calibrated";
+  }
   r.failed_cases = std::move(failed);
   r.failure_status = std::move(failure);
+  r.parameter_names = options.parameters;
+  r.cohort = cases;
+  r.calibrations = std::move(results);
   return r;
 }
 

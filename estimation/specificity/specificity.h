@@ -2,6 +2,8 @@
 // configuration, then ask which parameters separate two groups (e.g. volunteers and heart-failure
 // patients). Per parameter: group means and spreads, effect sizes, Welch's t and Mann-Whitney U
 // tests, the AUC; jointly: the leave-one-out accuracy of a shrunk linear discriminant.
+// run_specificity returns a SpecificitySummary: every case's calibration record in cohort order
+// and the statistics, or the status kNoStatistics when the groups are too small (not an exception).
 //
 // Read only parameters that are both sensitive (a sensitivity study) and well identified (small
 // posterior spread, reported here per group as the mean posterior standard deviation).
@@ -24,6 +26,9 @@ struct CohortCase {
   std::string id;
   std::string group;
   std::string source;
+  // Known parameter values (synthetic cohorts), in the order of SpecificityOptions::parameters;
+  // NaN where unknown, empty when none is known. Reported beside the estimates.
+  Eigen::VectorXd truth;
 };
 
 // What a calibration returns for one case: posterior mean and standard deviation of each studied
@@ -32,6 +37,17 @@ struct CaseCalibration {
   model::Status status;
   Eigen::VectorXd mean;
   Eigen::VectorXd sd;
+  // What the calibration did, for the per-case report (optional for the statistics).
+  std::string termination = "not run";
+  std::string message;
+  int iterations = 0;
+  int simulations = 0;
+  double seconds = 0.0;
+  Eigen::VectorXd observed, fitted;  // SI, one entry per observation; fitted NaN without a fit
+  // 100 mean_j |fitted_j - observed_j| / |observed_j|; NaN without a fit. `scale` (one factor per
+  // observation, e.g. to display units) is applied to both first: mathematically the same number,
+  // but rounded as the shown values are.
+  double relative_error_percent(const Eigen::VectorXd& scale = {}) const;
 };
 using CalibrateFn = std::function<CaseCalibration(const CohortCase&)>;
 
@@ -85,6 +101,12 @@ struct ClassifierResult {
   std::vector<std::string> predicted;  // the same as group names (compare_groups fills it)
 };
 
+enum class SpecificityStatus {
+  kOk,
+  kNoStatistics,  // fewer than 2 calibrated cases in a group (or none): per-case results only
+};
+const char* to_string(SpecificityStatus status);
+
 struct SpecificityResult {
   std::string group_a, group_b;
   std::vector<CaseEstimate> cases;                 // the cases that entered the statistics
@@ -103,11 +125,32 @@ struct SpecificityResult {
 SpecificityResult compare_groups(const std::vector<CaseEstimate>& cases,
                                  const SpecificityOptions& options);
 
+// Everything a specificity study reports: the statistics (when they could be made) and every
+// case of the cohort with its calibration, in cohort order.
+struct SpecificitySummary : SpecificityResult {
+  SpecificityStatus status = SpecificityStatus::kOk;
+  std::string message;  // why there are no statistics
+  std::vector<std::string> parameter_names;      // SpecificityOptions::parameters
+  std::vector<CohortCase> cohort;                // every case
+  std::vector<CaseCalibration> calibrations;     // one per cohort case
+  bool ok() const { return status == SpecificityStatus::kOk; }
+  bool case_ok(int i) const;  // the calibration of cohort case i succeeded
+  // "ok", or "<termination>: <message>" of a failed calibration.
+  std::string case_status(int i) const;
+  // cases x parameters in cohort order: posterior means and standard deviations (NaN rows for
+  // failed cases), known values (NaN where unknown).
+  Eigen::MatrixXd means() const;
+  Eigen::MatrixXd sds() const;
+  Eigen::MatrixXd truths() const;
+  bool any_truth() const;
+};
+
 // Calibrates each case with `calibrate` (in order, or options.case_threads at a time; a calibration
 // may itself run in parallel), drops and lists the failed cases (a failed Status or an exception;
-// listed in cohort order), then compare_groups.
-SpecificityResult run_specificity(const std::vector<CohortCase>& cases, const CalibrateFn& calibrate,
-                                  const SpecificityOptions& options);
+// listed in cohort order), then compare_groups. Throws std::invalid_argument on bad options only;
+// when the groups are too small the summary's status is kNoStatistics.
+SpecificitySummary run_specificity(const std::vector<CohortCase>& cases, const CalibrateFn& calibrate,
+                                   const SpecificityOptions& options);
 
 // Leave-one-out accuracy of the shrunk LDA on rows of X (cases x features) with labels in {0, 1}.
 ClassifierResult loo_lda(const Eigen::MatrixXd& X, const std::vector<int>& label, double shrinkage);

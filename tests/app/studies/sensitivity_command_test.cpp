@@ -4,6 +4,7 @@
 #include "app/cli.h"
 #include "app/errors.h"
 #include "app/io/hdf5_writer.h"
+#include "app/sensitivity_setup.h"
 #include "../test_support.h"
 
 #include <gtest/gtest.h>
@@ -26,6 +27,21 @@ using sigmaheart::testing::cli;
 
 nlohmann::json read_json(const std::filesystem::path& p) { return nlohmann::json::parse(read_file(p)); }
 
+// Writes `yaml` to dir/<file> and runs `sensitivity` on it with results in dir/r.h5 (and, with
+// `summary`, dir/r.json); `extra` arguments are appended.
+CliRun run_study(const std::filesystem::path& dir, const std::string& file, const std::string& yaml,
+                 bool summary, std::vector<std::string> extra = {}) {
+  const auto config = write_file(dir / file, yaml);
+  std::vector<std::string> args = {"--log-level", "off", "sensitivity", config.string(), "-o",
+                                   (dir / "r.h5").string()};
+  if (summary) {
+    args.push_back("--summary");
+    args.push_back((dir / "r.json").string());
+  }
+  args.insert(args.end(), extra.begin(), extra.end());
+  return cli(args);
+}
+
 const char* kIshigami =
     "name: ishigami\n"
     "simulator: {model: test-beat}\n"
@@ -38,9 +54,7 @@ const char* kIshigami =
 
 TEST(SensitivityCommand, IshigamiSobolReproducesExactIndicesWithinIntervals) {
   const auto dir = scratch_dir();
-  const auto config = write_file(dir / "ishigami.yaml", kIshigami);
-  const CliRun r = cli({"--log-level", "off", "sensitivity", config.string(), "-o", (dir / "r.h5").string(),
-                        "--summary", (dir / "r.json").string()});
+  const CliRun r = run_study(dir, "ishigami.yaml", kIshigami, true);
   ASSERT_EQ(r.code, kExitOk) << r.err << r.out;
   // Exact values (Ishigami & Homma 1990, a = 7, b = 0.1).
   const double S1[] = {0.3139, 0.4424, 0.0};
@@ -100,9 +114,7 @@ const char* kStandInOat =
 
 TEST(SensitivityCommand, OatReportsClinicalUnits) {
   const auto dir = scratch_dir();
-  const auto config = write_file(dir / "oat.yaml", kStandInOat);
-  const CliRun r = cli({"--log-level", "off", "sensitivity", config.string(), "-o", (dir / "r.h5").string(),
-                        "--summary", (dir / "r.json").string(), "--threads", "1"});
+  const CliRun r = run_study(dir, "oat.yaml", kStandInOat, true, {"--threads", "1"});
   ASSERT_EQ(r.code, kExitOk) << r.err;
   io::Hdf5Reader f(dir / "r.h5");
   EXPECT_EQ(f.read_strings("/analysis/outputs/units"), (std::vector<std::string>{"mL", "%", "mmHg"}));
@@ -139,9 +151,7 @@ std::string failing_sobol(const std::string& policy) {
 
 TEST(SensitivityCommand, SobolDesignWithFailedRunsWritesTheReportAndExitsOne) {
   const auto dir = scratch_dir();
-  const auto config = write_file(dir / "failing.yaml", failing_sobol("stop"));
-  const CliRun r = cli({"--log-level", "off", "sensitivity", config.string(), "-o", (dir / "r.h5").string(),
-                        "--summary", (dir / "r.json").string()});
+  const CliRun r = run_study(dir, "failing.yaml", failing_sobol("stop"), true);
   ASSERT_EQ(r.code, kExitRuntimeFailure) << r.err << r.out;
   EXPECT_NE(r.err.find("/analysis/failed"), std::string::npos) << r.err;
   EXPECT_NE(r.out.find("failed run"), std::string::npos) << r.out;
@@ -170,12 +180,12 @@ TEST(SensitivityCommand, SobolDesignWithFailedRunsWritesTheReportAndExitsOne) {
   EXPECT_FALSE(j["valid"].get<bool>());
   EXPECT_EQ(j["failed_runs"].size(), static_cast<size_t>(expected));
   EXPECT_NE(j["failed_runs"][0]["message"].get<std::string>().find("Newton diverged"), std::string::npos);
+  EXPECT_EQ(j["status"], "failed-runs");
 }
 
 TEST(SensitivityCommand, SobolImputeMeanPolicyFlagsTheResultAndExitsZero) {
   const auto dir = scratch_dir();
-  const auto config = write_file(dir / "failing.yaml", failing_sobol("impute-mean"));
-  const CliRun r = cli({"--log-level", "off", "sensitivity", config.string(), "-o", (dir / "r.h5").string()});
+  const CliRun r = run_study(dir, "failing.yaml", failing_sobol("impute-mean"), false);
   ASSERT_EQ(r.code, kExitOk) << r.err;
   io::Hdf5Reader f(dir / "r.h5");
   EXPECT_EQ(f.double_attribute("/analysis/sobol", "imputed"), 1.0);
@@ -202,8 +212,7 @@ TEST(SensitivityCommand, BadConfigsGiveLocatedErrorsAndExitTwo) {
        "EFF"},
   };
   for (const auto& c : cases) {
-    const auto config = write_file(dir / "bad.yaml", c.yaml);
-    const CliRun r = cli({"--log-level", "off", "sensitivity", config.string(), "-o", (dir / "r.h5").string()});
+    const CliRun r = run_study(dir, "bad.yaml", c.yaml, false);
     EXPECT_EQ(r.code, kExitBadInput) << c.yaml << r.err;
     EXPECT_NE(r.err.find(c.location), std::string::npos) << c.yaml << "\n" << r.err;
     EXPECT_NE(r.err.find(c.words), std::string::npos) << c.yaml << "\n" << r.err;
@@ -213,13 +222,12 @@ TEST(SensitivityCommand, BadConfigsGiveLocatedErrorsAndExitTwo) {
 
 TEST(SensitivityCommand, MorrisDropsTrajectoriesWithFailedRunsAndSaysSo) {
   const auto dir = scratch_dir();
-  const auto config = write_file(dir / "m.yaml",
-                                 "name: m\nsimulator: {model: test-beat, numerics: {samples: 41}}\n"
-                                 "sensitivity:\n  method: morris\n  outputs: [EDV]\n  parameters:\n"
-                                 "    V_ed: {relative: 0.2}\n    fail: {lower: 0.0, upper: 0.6}\n"
-                                 "  morris: {trajectories: 20, bootstrap: 100}\n");
-  const CliRun r = cli({"--log-level", "off", "sensitivity", config.string(), "-o", (dir / "r.h5").string(),
-                        "--summary", (dir / "r.json").string()});
+  const CliRun r = run_study(dir, "m.yaml",
+                             "name: m\nsimulator: {model: test-beat, numerics: {samples: 41}}\n"
+                             "sensitivity:\n  method: morris\n  outputs: [EDV]\n  parameters:\n"
+                             "    V_ed: {relative: 0.2}\n    fail: {lower: 0.0, upper: 0.6}\n"
+                             "  morris: {trajectories: 20, bootstrap: 100}\n",
+                             true);
   ASSERT_EQ(r.code, kExitOk) << r.err;
   const auto j = read_json(dir / "r.json");
   const size_t dropped = j["trajectories_dropped"].size();
@@ -230,6 +238,27 @@ TEST(SensitivityCommand, MorrisDropsTrajectoriesWithFailedRunsAndSaysSo) {
   EXPECT_NEAR(j["indices"]["EDV"]["parameters"]["V_ed"]["mu_star"].get<double>(), 56.0, 1e-6);
   EXPECT_NEAR(j["indices"]["EDV"]["parameters"]["V_ed"]["sigma"].get<double>(), 0.0, 1e-9);
   EXPECT_NE(r.out.find("dropped for failed runs"), std::string::npos);
+}
+
+TEST(SensitivitySetup, ParametersBecomeAUniformPriorInTheModelInputOrder) {
+  const auto dir = scratch_dir();
+  const auto path = write_file(dir / "s.yaml",
+                               "name: s\nsimulator: {model: test-beat}\nsensitivity:\n  method: morris\n"
+                               "  outputs: [EDV]\n  parameters:\n    EF: {lower: 0.4, upper: 0.8}\n"
+                               "    V_ed: {relative: 0.5, space: eta, transform: log}\n"
+                               "  morris: {trajectories: 7}\n");
+  ASSERT_EQ(cli({"--log-level", "off", "validate", path.string()}).code, kExitOk);  // registers the sections
+  const SensitivitySetup s = parse_sensitivity(load_config(path, {}));
+  ASSERT_EQ(s.prior.size(), 2);
+  EXPECT_EQ(s.prior.names(), (std::vector<std::string>{"EF", "V_ed"}));
+  EXPECT_EQ(s.model->input_names(), s.prior.names());
+  EXPECT_EQ(s.prior[0].kind, estimation::PriorKind::kUniform);
+  EXPECT_DOUBLE_EQ(s.prior[0].lower, 0.4);
+  EXPECT_DOUBLE_EQ(s.prior[0].theta_nominal, 0.6);  // the stand-in's EF
+  EXPECT_EQ(s.prior[1].space, estimation::SamplingSpace::kEta);
+  EXPECT_DOUBLE_EQ(s.prior[1].upper, 1.5 * 1.4e-4);
+  EXPECT_EQ(s.method, SensitivityMethod::kMorris);
+  EXPECT_EQ(s.runs(), 7 * 3);
 }
 
 }  // namespace

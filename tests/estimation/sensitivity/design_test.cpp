@@ -1,5 +1,7 @@
 #include "estimation/sensitivity/design.h"
 
+#include "estimation/sensitivity/oat.h"
+#include "estimation/sensitivity/sobol_indices.h"
 #include "estimation/sensitivity/test_functions.h"
 
 #include <gtest/gtest.h>
@@ -10,13 +12,8 @@ namespace sh = sigmaheart::estimation::sensitivity;
 using sigmaheart::estimation::TransformKind;
 
 namespace {
-sh::ParameterRange range(double lower, double upper, double nominal) {
-  sh::ParameterRange r;
-  r.name = "k";
-  r.lower = lower;
-  r.upper = upper;
-  r.nominal = nominal;
-  return r;
+sigmaheart::estimation::PriorParameter range(double lower, double upper, double nominal) {
+  return sigmaheart::estimation::PriorParameter::uniform("k", "1", lower, upper, nominal);
 }
 }  // namespace
 
@@ -59,12 +56,31 @@ TEST(Design, RangesThatTheTransformCannotMapAreRejected) {
 
 TEST(Design, RangesMustMatchTheModelInputsByCountAndName) {
   const sh::IshigamiModel model;
-  auto r = sh::ishigami_ranges();
-  EXPECT_TRUE(sh::validate_ranges(r, model).empty());
-  r[1].name = "x9";
-  EXPECT_NE(sh::validate_ranges(r, model).find("'x9'"), std::string::npos);
-  r.pop_back();
-  EXPECT_FALSE(sh::validate_ranges(r, model).empty());
+  auto r = sh::ishigami_prior();
+  EXPECT_TRUE(sh::validate_prior(r, model).empty());
+  r.parameters[1].name = "x9";
+  EXPECT_NE(sh::validate_prior(r, model).find("'x9'"), std::string::npos);
+  r.parameters.pop_back();
+  EXPECT_FALSE(sh::validate_prior(r, model).empty());
+}
+
+TEST(Design, AGaussianPriorIsNotAStudyRange) {
+  const sh::IshigamiModel model;
+  auto r = sh::ishigami_prior();
+  r.parameters[0].kind = sigmaheart::estimation::PriorKind::kGaussian;
+  EXPECT_NE(sh::validate_prior(r, model).find("uniform"), std::string::npos);
+}
+
+TEST(Design, RankingPutsTheLargestMagnitudeFirstAndNaNLast) {
+  Eigen::MatrixXd score(4, 1);
+  score << 0.5, std::nan(""), -2.0, 0.5;
+  EXPECT_EQ(sh::rank_by(score, 0), (std::vector<int>{2, 0, 3, 1}));
+}
+
+TEST(Design, StudyStatusNamesAreStable) {
+  EXPECT_STREQ(sh::to_string(sh::StudyStatus::kOk), "ok");
+  EXPECT_STREQ(sh::to_string(sh::StudyStatus::kFailedRuns), "failed-runs");
+  EXPECT_STREQ(sh::to_string(sh::StudyStatus::kFailedNominal), "failed-nominal");
 }
 
 TEST(Design, StreamsDependOnSeedAndIndexOnly) {
@@ -87,4 +103,13 @@ TEST(Design, PercentileIntervalInterpolatesOrderStatistics) {
   const auto [lo, hi] = sh::percentile_interval(v, 0.9);
   EXPECT_DOUBLE_EQ(lo, 5.0);
   EXPECT_DOUBLE_EQ(hi, 95.0);
+}
+
+TEST(Design, EnumNamesRoundTripAndAcceptAliases) {
+  for (auto m : {sh::OatMode::kRange, sh::OatMode::kRelative}) EXPECT_EQ(sh::parse_oat_mode(sh::to_string(m)), m);
+  EXPECT_EQ(sh::parse_sobol_failure_policy("impute_mean"), sh::SobolFailurePolicy::kImputeMean);
+  EXPECT_STREQ(sh::to_string(sh::SobolFailurePolicy::kImputeMean), "impute-mean");
+  EXPECT_EQ(sh::parse_scrambling("off"), sh::Scrambling::kNone);
+  EXPECT_STREQ(sh::to_string(sh::Scrambling::kLinearMatrixAndShift), "lms");
+  EXPECT_FALSE(sh::parse_oat_mode("sideways").has_value());
 }

@@ -66,8 +66,8 @@ Eigen::MatrixXd coefficients() {
 
 TEST(Morris, LinearModelGivesMuStarEqualToTheAbsoluteCoefficientsAndZeroSigma) {
   const Eigen::MatrixXd c = coefficients();
-  const auto r = sh::run_morris(Linear(c), sh::g_function_ranges(4), options(12));
-  ASSERT_TRUE(r.valid) << r.report();
+  const auto r = sh::run_morris(Linear(c), sh::g_function_prior(4), options(12));
+  ASSERT_TRUE(r.ok()) << r.report();
   EXPECT_EQ(r.thetas.rows(), 12 * 5);
   EXPECT_LT((r.mu_star - c.cwiseAbs()).cwiseAbs().maxCoeff(), 1e-12) << r.report();
   EXPECT_LT((r.mu - c).cwiseAbs().maxCoeff(), 1e-12);
@@ -80,11 +80,11 @@ TEST(Morris, LinearModelGivesMuStarEqualToTheAbsoluteCoefficientsAndZeroSigma) {
 
 TEST(Morris, EffectsAreScaledToTheParameterRange) {
   // theta_1 in [10, 30]: crossing the whole range changes y1 by 3 * 20 = 60.
-  auto ranges = sh::g_function_ranges(4);
-  ranges[0].lower = 10.0;
-  ranges[0].upper = 30.0;
-  ranges[0].nominal = 20.0;
-  const auto r = sh::run_morris(Linear(coefficients(), 100.0), ranges, options(6));
+  auto prior = sh::g_function_prior(4);
+  prior.parameters[0].lower = 10.0;
+  prior.parameters[0].upper = 30.0;
+  prior.parameters[0].theta_nominal = 20.0;
+  const auto r = sh::run_morris(Linear(coefficients(), 100.0), prior, options(6));
   EXPECT_NEAR(r.mu_star(0, 0), 60.0, 1e-9);
 }
 
@@ -122,7 +122,7 @@ TEST(Morris, TrajectoriesFollowTheGridWithOneStepOfDeltaPerParameter) {
 
 TEST(Morris, ATrajectoryWithAFailedRunIsDroppedWholeAndReported) {
   // x1 = 1 (the top level) fails.
-  const auto r = sh::run_morris(Linear(coefficients(), 0.9), sh::g_function_ranges(4), options(30));
+  const auto r = sh::run_morris(Linear(coefficients(), 0.9), sh::g_function_prior(4), options(30));
   int expected_dropped = 0;
   for (int t = 0; t < 30; ++t) {
     bool fails = false;
@@ -134,7 +134,7 @@ TEST(Morris, ATrajectoryWithAFailedRunIsDroppedWholeAndReported) {
   EXPECT_EQ(static_cast<int>(r.dropped_trajectories.size()), expected_dropped);
   EXPECT_EQ(static_cast<int>(r.used_trajectories.size()), 30 - expected_dropped);
   EXPECT_EQ(static_cast<int>(r.effects.size()), 30 - expected_dropped);
-  EXPECT_TRUE(r.valid);
+  EXPECT_TRUE(r.ok());
   EXPECT_LT((r.mu_star - coefficients().cwiseAbs()).cwiseAbs().maxCoeff(), 1e-12);
   const std::string report = r.report();
   EXPECT_NE(report.find(std::to_string(expected_dropped) + " of 30 trajectories dropped"),
@@ -146,8 +146,8 @@ TEST(Morris, ATrajectoryWithAFailedRunIsDroppedWholeAndReported) {
 TEST(Morris, IshigamiRanksTheInputsAsTheirTotalIndices) {
   // mu* screens like ST (Campolongo 2007): x1 (ST 0.56) above x3 (0.24). The effect of x2
   // (a sin^2 x2) changes sign across its range: mu near 0 while mu* is large.
-  const auto r = sh::run_morris(sh::IshigamiModel(), sh::ishigami_ranges(), options(50));
-  ASSERT_TRUE(r.valid);
+  const auto r = sh::run_morris(sh::IshigamiModel(), sh::ishigami_prior(), options(50));
+  ASSERT_TRUE(r.ok());
   EXPECT_GT(r.mu_star(0, 0), r.mu_star(2, 0));
   EXPECT_LT(std::abs(r.mu(1, 0)), 0.5 * r.mu_star(1, 0));
   EXPECT_LE(r.mu_star_low(0, 0), r.mu_star(0, 0));
@@ -158,8 +158,8 @@ TEST(Morris, ResultsDoNotDependOnTheThreadCount) {
   auto serial = options(10);
   serial.ensemble.backend = Backend::kSerial;
   auto threaded = options(10);
-  const auto a = sh::run_morris(sh::IshigamiModel(), sh::ishigami_ranges(), serial);
-  const auto b = sh::run_morris(sh::IshigamiModel(), sh::ishigami_ranges(), threaded);
+  const auto a = sh::run_morris(sh::IshigamiModel(), sh::ishigami_prior(), serial);
+  const auto b = sh::run_morris(sh::IshigamiModel(), sh::ishigami_prior(), threaded);
   EXPECT_EQ((a.Z - b.Z).cwiseAbs().maxCoeff(), 0.0);
   EXPECT_EQ((a.mu_star_low - b.mu_star_low).cwiseAbs().maxCoeff(), 0.0);
   EXPECT_EQ((a.sigma_high - b.sigma_high).cwiseAbs().maxCoeff(), 0.0);
@@ -169,5 +169,5 @@ TEST(Morris, OddLevelCountsAreRejected) {
   auto o = options(4);
   o.levels = 5;
   EXPECT_FALSE(o.validate().empty());
-  EXPECT_THROW(sh::run_morris(sh::IshigamiModel(), sh::ishigami_ranges(), o), std::invalid_argument);
+  EXPECT_THROW(sh::run_morris(sh::IshigamiModel(), sh::ishigami_prior(), o), std::invalid_argument);
 }

@@ -26,17 +26,13 @@ class Known final : public ForwardModel {
   std::unique_ptr<ForwardModel> clone() const override { return std::make_unique<Known>(); }
 };
 
-sh::ParameterRange range(const char* name, double nominal, double lower, double upper) {
-  sh::ParameterRange r;
-  r.name = std::string(name);
-  r.nominal = nominal;
-  r.lower = lower;
-  r.upper = upper;
-  return r;
+sigmaheart::estimation::PriorParameter range(const char* name, double nominal, double lower,
+                                             double upper) {
+  return sigmaheart::estimation::PriorParameter::uniform(name, "1", lower, upper, nominal);
 }
 
-std::vector<sh::ParameterRange> ranges() {
-  return {range("a", 1.0, 0.5, 2.0), range("b", 2.0, 1.0, 4.0), range("c", 5.0, 1.0, 20.0)};
+sigmaheart::estimation::Prior ranges() {
+  return {{range("a", 1.0, 0.5, 2.0), range("b", 2.0, 1.0, 4.0), range("c", 5.0, 1.0, 20.0)}, {}};
 }
 
 }  // namespace
@@ -51,7 +47,7 @@ TEST(Oat, RelativeStudyGivesTheHandComputedDeltasAndElasticities) {
   sh::OatOptions o;
   o.relative_change = 0.1;
   const auto r = sh::run_oat(Known(), ranges(), o);
-  ASSERT_TRUE(r.valid) << r.report();
+  ASSERT_TRUE(r.ok()) << r.report();
   EXPECT_EQ(r.thetas.rows(), 7);
   EXPECT_NEAR(r.z_nominal(0), 7.0, 1e-12);
   EXPECT_NEAR(r.z_nominal(1), 10.0, 1e-12);
@@ -77,7 +73,7 @@ TEST(Oat, RangeStudyMovesEachParameterToItsBoundsAndReportsFailedRuns) {
   sh::OatOptions o;
   o.mode = sh::OatMode::kRange;
   const auto r = sh::run_oat(Known(), ranges(), o);
-  EXPECT_TRUE(r.valid);
+  EXPECT_TRUE(r.ok());
   EXPECT_DOUBLE_EQ(r.theta_low(0), 0.5);
   EXPECT_DOUBLE_EQ(r.theta_high(2), 20.0);
   // a = 2: y1 = 4 + 6 = 10, delta 3.
@@ -93,9 +89,10 @@ TEST(Oat, RangeStudyMovesEachParameterToItsBoundsAndReportsFailedRuns) {
 
 TEST(Oat, AFailedNominalRunInvalidatesTheStudy) {
   auto rr = ranges();
-  rr[2].nominal = 15.0;
+  rr.parameters[2].theta_nominal = 15.0;
   const auto r = sh::run_oat(Known(), rr, sh::OatOptions{});
-  EXPECT_FALSE(r.valid);
+  EXPECT_FALSE(r.ok());
+  EXPECT_EQ(r.status, sh::StudyStatus::kFailedNominal);
   EXPECT_TRUE(std::isnan(r.delta_low(0, 0)));
   EXPECT_NE(r.report().find("INVALID"), std::string::npos);
 }

@@ -66,8 +66,8 @@ class TwoOutputs final : public ForwardModel {
 
 TEST(SobolIndices, IshigamiEstimatesContainTheExactIndicesInTheirBootstrapIntervals) {
   const auto exact = sh::ishigami_exact();
-  const auto r = sh::run_sobol(sh::IshigamiModel(), sh::ishigami_ranges(), options(8192));
-  ASSERT_TRUE(r.valid) << r.report();
+  const auto r = sh::run_sobol(sh::IshigamiModel(), sh::ishigami_prior(), options(8192));
+  ASSERT_TRUE(r.ok()) << r.report();
   EXPECT_EQ(r.runs, 8192 * 5);
   for (int i = 0; i < 3; ++i) {
     EXPECT_NEAR(r.estimate.S1(i, 0), exact.S1(i), 0.01) << r.report();
@@ -80,7 +80,7 @@ TEST(SobolIndices, IshigamiEstimatesContainTheExactIndicesInTheirBootstrapInterv
 }
 
 TEST(SobolIndices, IntervalWidthsShrinkAsTheDesignGrows) {
-  const auto r = sh::run_sobol(sh::IshigamiModel(), sh::ishigami_ranges(), options(8192));
+  const auto r = sh::run_sobol(sh::IshigamiModel(), sh::ishigami_prior(), options(8192));
   ASSERT_EQ(r.convergence.size(), 4u);
   EXPECT_EQ(r.convergence[0].n, 8192);
   EXPECT_EQ(r.convergence[3].n, 1024);
@@ -101,8 +101,8 @@ TEST(SobolIndices, IntervalWidthsShrinkAsTheDesignGrows) {
 TEST(SobolIndices, GFunctionEstimatesMatchTheExactIndices) {
   const Eigen::VectorXd a = sh::g_function_default_a();
   const auto exact = sh::g_function_exact(a);
-  const auto r = sh::run_sobol(sh::GFunctionModel(a), sh::g_function_ranges(8), options(8192, 7));
-  ASSERT_TRUE(r.valid) << r.report();
+  const auto r = sh::run_sobol(sh::GFunctionModel(a), sh::g_function_prior(8), options(8192, 7));
+  ASSERT_TRUE(r.ok()) << r.report();
   for (int i = 0; i < 8; ++i) {
     EXPECT_NEAR(r.estimate.S1(i, 0), exact.S1(i), 0.01) << "x" << i + 1 << "\n" << r.report();
     EXPECT_NEAR(r.estimate.ST(i, 0), exact.ST(i), 0.01) << "x" << i + 1 << "\n" << r.report();
@@ -118,8 +118,8 @@ TEST(SobolIndices, GFunctionEstimatesMatchTheExactIndices) {
 TEST(SobolIndices, VectorOutputsAreAnalysedFromOneDesign) {
   // y1 = x1 + 2 x2 on [0,1]^3: S1 = ST = (1/5, 4/5, 0). y2 = x2 x3: S1 = (0, 3/7, 3/7),
   // ST = (0, 4/7, 4/7) (V = 7/144, V2 = V3 = 1/48, V23 = 1/144).
-  const auto r = sh::run_sobol(TwoOutputs(), sh::g_function_ranges(3), options(4096));
-  ASSERT_TRUE(r.valid);
+  const auto r = sh::run_sobol(TwoOutputs(), sh::g_function_prior(3), options(4096));
+  ASSERT_TRUE(r.ok());
   ASSERT_EQ(r.estimate.S1.rows(), 3);
   ASSERT_EQ(r.estimate.S1.cols(), 2);
   EXPECT_EQ(r.runs, 4096 * 5);
@@ -133,8 +133,8 @@ TEST(SobolIndices, VectorOutputsAreAnalysedFromOneDesign) {
 
 TEST(SobolIndices, AFailedRunStopsTheStudyWithTheFailedRowsListedAndNoIndices) {
   // x1 > 3.1 fails: a few percent of the A, B and AB_i rows.
-  const auto r = sh::run_sobol(FailingIshigami(3.1), sh::ishigami_ranges(), options(256));
-  EXPECT_FALSE(r.valid);
+  const auto r = sh::run_sobol(FailingIshigami(3.1), sh::ishigami_prior(), options(256));
+  EXPECT_FALSE(r.ok());
   EXPECT_FALSE(r.imputed);
   ASSERT_FALSE(r.failed_runs.empty());
   int expected = 0;
@@ -160,8 +160,8 @@ TEST(SobolIndices, AFailedRunStopsTheStudyWithTheFailedRowsListedAndNoIndices) {
 TEST(SobolIndices, ImputationIsOptInAndFlagged) {
   auto o = options(1024);
   o.failure_policy = sh::SobolFailurePolicy::kImputeMean;
-  const auto r = sh::run_sobol(FailingIshigami(3.1), sh::ishigami_ranges(), o);
-  EXPECT_TRUE(r.valid);
+  const auto r = sh::run_sobol(FailingIshigami(3.1), sh::ishigami_prior(), o);
+  EXPECT_TRUE(r.ok());
   EXPECT_TRUE(r.imputed);
   EXPECT_FALSE(r.failed_runs.empty());
   EXPECT_NE(r.report().find("impute-mean"), std::string::npos);
@@ -175,8 +175,8 @@ TEST(SobolIndices, ResultsDoNotDependOnTheThreadCount) {
   serial.ensemble.backend = Backend::kSerial;
   auto threaded = options(512);
   threaded.ensemble.threads = 2;
-  const auto a = sh::run_sobol(sh::IshigamiModel(), sh::ishigami_ranges(), serial);
-  const auto b = sh::run_sobol(sh::IshigamiModel(), sh::ishigami_ranges(), threaded);
+  const auto a = sh::run_sobol(sh::IshigamiModel(), sh::ishigami_prior(), serial);
+  const auto b = sh::run_sobol(sh::IshigamiModel(), sh::ishigami_prior(), threaded);
   EXPECT_EQ((a.Z - b.Z).cwiseAbs().maxCoeff(), 0.0);
   EXPECT_EQ((a.estimate.S1 - b.estimate.S1).cwiseAbs().maxCoeff(), 0.0);
   EXPECT_EQ((a.estimate.ST_low - b.estimate.ST_low).cwiseAbs().maxCoeff(), 0.0);
@@ -186,15 +186,15 @@ TEST(SobolIndices, ResultsDoNotDependOnTheThreadCount) {
 TEST(SobolIndices, EtaSpaceSamplingOfALogTransformIsLogUniform) {
   // A log transform sampled in eta on [1, 100]: log10(theta) of the design is uniform on [0, 2],
   // so half the A rows lie below 10.
-  auto ranges = sh::g_function_ranges(3);
-  ranges[0].lower = 1.0;
-  ranges[0].upper = 100.0;
-  ranges[0].nominal = 10.0;
-  ranges[0].space = sh::SamplingSpace::kEta;
-  ranges[0].transform.kind = sigmaheart::estimation::TransformKind::kLog;
-  ranges[0].transform.reference = 10.0;
+  auto prior = sh::g_function_prior(3);
+  prior.parameters[0].lower = 1.0;
+  prior.parameters[0].upper = 100.0;
+  prior.parameters[0].theta_nominal = 10.0;
+  prior.parameters[0].space = sh::SamplingSpace::kEta;
+  prior.parameters[0].transform.kind = sigmaheart::estimation::TransformKind::kLog;
+  prior.parameters[0].transform.reference = 10.0;
   const Eigen::MatrixXd U = sh::saltelli_design(3, 1024, sh::Scrambling::kLinearMatrixAndShift, 1);
-  const Eigen::MatrixXd T = sh::unit_to_theta(ranges, U);
+  const Eigen::MatrixXd T = prior.unit_to_theta(U);
   int below = 0;
   for (int j = 0; j < 1024; ++j) below += T(j, 0) < 10.0 ? 1 : 0;
   EXPECT_EQ(below, 512);
@@ -204,10 +204,10 @@ TEST(SobolIndices, EtaSpaceSamplingOfALogTransformIsLogUniform) {
 
 TEST(SobolIndices, InvalidOptionsAreRejectedBeforeAnyRun) {
   auto o = options(1000);  // not a power of two
-  EXPECT_THROW(sh::run_sobol(sh::IshigamiModel(), sh::ishigami_ranges(), o), std::invalid_argument);
-  auto ranges = sh::ishigami_ranges();
-  ranges.pop_back();
-  EXPECT_THROW(sh::run_sobol(sh::IshigamiModel(), ranges, options(64)), std::invalid_argument);
+  EXPECT_THROW(sh::run_sobol(sh::IshigamiModel(), sh::ishigami_prior(), o), std::invalid_argument);
+  auto prior = sh::ishigami_prior();
+  prior.parameters.pop_back();
+  EXPECT_THROW(sh::run_sobol(sh::IshigamiModel(), prior, options(64)), std::invalid_argument);
 }
 
 // Sobol' indices are invariant to adding a constant to the output; the centred first-order
@@ -234,8 +234,8 @@ class ShiftedIshigami final : public ForwardModel {
 }  // namespace
 
 TEST(SobolIndices, FirstOrderIndicesDoNotDependOnAnOutputOffset) {
-  const auto r = sh::run_sobol(ShiftedIshigami(), sh::ishigami_ranges(), options(1024));
-  ASSERT_TRUE(r.valid) << r.report();
+  const auto r = sh::run_sobol(ShiftedIshigami(), sh::ishigami_prior(), options(1024));
+  ASSERT_TRUE(r.ok()) << r.report();
   const auto exact = sh::ishigami_exact();
   for (int i = 0; i < 3; ++i) {
     EXPECT_NEAR(r.estimate.S1(i, 1), r.estimate.S1(i, 0), 1e-9);

@@ -173,3 +173,59 @@ TEST(Specificity, LeaveOneOutWorksWithTwoCasesInAGroup) {
   EXPECT_EQ(c.correct, 7);
   EXPECT_FALSE(sp::loo_lda(X.topRows(6), {0, 0, 0, 0, 0, 1}, 0.2).valid);
 }
+
+TEST(Specificity, TooFewCalibratedCasesIsAStatusWithPerCaseResultsKept) {
+  // Every patient fails: no statistics, but the volunteers' estimates stay in the summary.
+  const Cohort cohort = make_cohort();
+  sp::SpecificityOptions named_groups = options();
+  named_groups.group_a = "volunteer";
+  named_groups.group_b = "heart-failure";
+  const auto r = sp::run_specificity(
+      cohort.cases,
+      [&](const sp::CohortCase& k) {
+        const auto i = static_cast<size_t>(&k - cohort.cases.data());
+        if (k.group == "heart-failure") {
+          sp::CaseCalibration bad;
+          bad.termination = "aborted-failures";
+          bad.status = sigmaheart::model::Status::Error(sigmaheart::model::StatusCode::kDiverged, "diverged");
+          return bad;
+        }
+        return cohort.truth[i];
+      },
+      named_groups);
+  EXPECT_FALSE(r.ok());
+  EXPECT_EQ(r.status, sp::SpecificityStatus::kNoStatistics);
+  EXPECT_NE(r.message.find("at least 2"), std::string::npos) << r.message;
+  ASSERT_EQ(r.calibrations.size(), 24u);
+  const Eigen::MatrixXd mean = r.means();
+  EXPECT_DOUBLE_EQ(mean(0, 2), cohort.truth[0].mean(2));
+  EXPECT_TRUE(std::isnan(mean(12, 2)));
+  EXPECT_EQ(r.case_status(0), "ok");
+  EXPECT_EQ(r.case_status(12), "aborted-failures: diverged");
+  EXPECT_FALSE(r.any_truth());
+}
+
+TEST(Specificity, RelativeErrorOfAFitIsTheMeanRelativeMisfitInPercent) {
+  sp::CaseCalibration c;
+  c.observed = Eigen::Vector2d(100.0, 0.5);
+  c.fitted = Eigen::Vector2d(101.0, 0.49);
+  EXPECT_NEAR(c.relative_error_percent(), 100.0 * (0.01 + 0.02) / 2.0, 1e-12);
+  EXPECT_NEAR(c.relative_error_percent(Eigen::Vector2d(1e6, 100.0)), 1.5, 1e-12);
+  c.fitted.resize(0);
+  EXPECT_TRUE(std::isnan(c.relative_error_percent()));
+}
+
+TEST(Specificity, KnownValuesAreReportedPerCaseWithNaNWhereUnknown) {
+  Cohort cohort = make_cohort();
+  cohort.cases[1].truth = Eigen::Vector4d(1.0, std::nan(""), 90.0, 0.4);
+  const auto r = sp::run_specificity(
+      cohort.cases,
+      [&](const sp::CohortCase& k) { return cohort.truth[static_cast<size_t>(&k - cohort.cases.data())]; },
+      options());
+  ASSERT_TRUE(r.ok());
+  EXPECT_TRUE(r.any_truth());
+  const Eigen::MatrixXd t = r.truths();
+  EXPECT_DOUBLE_EQ(t(1, 2), 90.0);
+  EXPECT_TRUE(std::isnan(t(1, 1)));
+  EXPECT_TRUE(std::isnan(t(0, 0)));
+}
