@@ -75,8 +75,7 @@ int run_calibrate(const CalibrateOptions& o, CommandContext& ctx) {
       !o.output.empty() ? o.output : default_output_path(o.config, "calibrate");
 
   auto simulator = config.simulator.make();
-  std::vector<std::string> names;
-  for (const auto& p : problem.parameters) names.push_back(p.name);
+  const std::vector<std::string> names = problem.prior.names();
   estimation::SimulatorForwardModel forward(*simulator, *problem.observer, names);
 
   estimation::UtOptions options = problem.options;
@@ -103,7 +102,7 @@ int run_calibrate(const CalibrateOptions& o, CommandContext& ctx) {
     progress.update(p.done);
   };
 
-  estimation::UtCalibration calibration(forward, problem.parameters, problem.observations, options);
+  estimation::UtCalibration calibration(forward, problem.prior, problem.observations, options);
   const std::string invalid = calibration.validate();
   if (!invalid.empty()) {
     throw InputError(config.file.root()["calibration"].location(), invalid);
@@ -118,8 +117,7 @@ int run_calibrate(const CalibrateOptions& o, CommandContext& ctx) {
   progress.finish();
 
   // Curves at the prior and at the estimate, for the plots.
-  Eigen::VectorXd prior_theta(static_cast<Eigen::Index>(names.size()));
-  for (size_t j = 0; j < names.size(); ++j) prior_theta(static_cast<Eigen::Index>(j)) = problem.parameters[j].prior_mean;
+  const Eigen::VectorXd prior_theta = summary.theta_prior;
   const model::RunResult prior_run = simulator->run(forward.full_theta(prior_theta));
   const model::RunResult post_run = simulator->run(forward.full_theta(summary.theta_of_eta_mean));
 
@@ -150,11 +148,8 @@ int run_calibrate(const CalibrateOptions& o, CommandContext& ctx) {
   };
   const double rms_before = rms_normalised(summary.fit_before);
   const double rms_after = rms_normalised(summary.fit_after);
-  Eigen::VectorXd prior_std(p);
-  for (int j = 0; j < p; ++j) {
-    const auto& c = problem.parameters[static_cast<size_t>(j)];
-    prior_std(j) = std::abs(c.transform.dtheta_deta(c.eta_mean())) * c.eta_std();
-  }
+  const Eigen::VectorXd prior_std = summary.theta_prior_std;
+  const std::vector<std::string> parameter_units = problem.prior.units();
 
   fill_provenance(prov, config, ctx, "calibrate", options.ensemble.threads > 0 ? options.ensemble.threads : omp_get_max_threads(), estimation::mpi_size());
   {
@@ -179,9 +174,9 @@ int run_calibrate(const CalibrateOptions& o, CommandContext& ctx) {
 
     // Estimate.
     h5.write_strings("/estimate/names", names);
-    h5.write_strings("/estimate/units", problem.parameter_units);
+    h5.write_strings("/estimate/units", parameter_units);
     std::vector<std::string> transforms;
-    for (const auto& c : problem.parameters) transforms.emplace_back(estimation::to_string(c.transform.kind));
+    for (const auto& c : problem.prior.parameters) transforms.emplace_back(estimation::to_string(c.transform.kind));
     h5.write_strings("/estimate/transform", transforms);
     const std::string per = "per parameter, see /estimate/units";
     h5.write_vector("/estimate/prior_mean", prior_theta, per);
@@ -270,7 +265,7 @@ int run_calibrate(const CalibrateOptions& o, CommandContext& ctx) {
   for (int j = 0; j < p; ++j) {
     t << std::left << std::setw(14) << names[static_cast<size_t>(j)] << std::right << std::setw(12)
       << fmt(prior_theta(j)) << std::setw(14) << fmt(summary.theta_of_eta_mean(j)) << std::setw(12)
-      << fmt(summary.theta_std(j), 2) << "  " << problem.parameter_units[static_cast<size_t>(j)] << "\n";
+      << fmt(summary.theta_std(j), 2) << "  " << parameter_units[static_cast<size_t>(j)] << "\n";
   }
   t << "\n" << std::left << std::setw(14) << "observation" << std::right << std::setw(11) << "observed"
     << std::setw(11) << "prior" << std::setw(11) << "calibrated" << std::setw(9) << "error" << "  unit\n";
@@ -303,7 +298,7 @@ int run_calibrate(const CalibrateOptions& o, CommandContext& ctx) {
                             {"std", summary.theta_std(k)},
                             {"prior", prior_theta(k)},
                             {"prior_std", prior_std(k)},
-                            {"unit", problem.parameter_units[static_cast<size_t>(k)]}};
+                            {"unit", parameter_units[static_cast<size_t>(k)]}};
     }
     for (int i = 0; i < m; ++i) {
       const auto& n = problem.observations.names[static_cast<size_t>(i)];

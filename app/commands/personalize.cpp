@@ -123,13 +123,13 @@ std::vector<int> parse_segments(const ConfigNode& node, int patches) {
 estimation::RoukfParameter parse_prior(const model::Parameter& p, const ConfigNode& node,
                                        double& prior) {
   // The same prior conventions as `calibrate` (app/calibration_setup.h).
-  const estimation::CalibrationParameter c = parse_estimated_parameter(p, node);
-  prior = c.prior_mean;
+  const estimation::PriorParameter c = parse_estimated_parameter(p, node);
+  prior = c.theta_nominal;
   estimation::RoukfParameter q;
   q.name = p.name;
   q.transform = c.transform;
-  q.prior_eta = c.eta_mean();
-  q.prior_std_eta = c.eta_std();
+  q.prior_eta = c.mean_eta;
+  q.prior_std_eta = c.std_eta;
   return q;
 }
 

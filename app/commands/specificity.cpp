@@ -199,8 +199,8 @@ SpecificitySetup parse_specificity_setup(const Config& config) {
     s.problems.push_back(parse_calibration_problem(config, c.file));
     const auto& p = s.problems.back();
     if (s.names.empty()) {
-      for (const auto& cp : p.parameters) s.names.push_back(cp.name);
-      s.units = p.parameter_units;
+      s.names = p.prior.names();
+      s.units = p.prior.units();
     }
   }
   return s;
@@ -275,7 +275,7 @@ int run_specificity_command(const SpecificityCommandOptions& o, CommandContext& 
   // Validate every calibration before running any.
   for (int i = 0; i < n; ++i) {
     auto& pr = setup.problems[static_cast<size_t>(i)];
-    estimation::UtCalibration check(*forwards[static_cast<size_t>(i)], pr.parameters, pr.observations, pr.options);
+    estimation::UtCalibration check(*forwards[static_cast<size_t>(i)], pr.prior, pr.observations, pr.options);
     if (const std::string m = check.validate(); !m.empty()) {
       throw InputError(setup.cases[static_cast<size_t>(i)].where,
                        "case '" + setup.cases[static_cast<size_t>(i)].name + "': " + m);
@@ -315,7 +315,7 @@ int run_specificity_command(const SpecificityCommandOptions& o, CommandContext& 
       options.ensemble.threads = threads;
       if (threads == 1) options.ensemble.backend = estimation::Backend::kSerial;
     }
-    estimation::UtCalibration cal(*forwards[static_cast<size_t>(i)], pr.parameters, pr.observations, options);
+    estimation::UtCalibration cal(*forwards[static_cast<size_t>(i)], pr.prior, pr.observations, options);
     const estimation::UtSummary s = cal.run();
     rec.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     rec.termination = estimation::to_string(s.termination);
@@ -413,7 +413,7 @@ int run_specificity_command(const SpecificityCommandOptions& o, CommandContext& 
     h5.write_strings("/parameters/units", setup.units);
     {
       Eigen::VectorXd prior(p);
-      for (int j = 0; j < p; ++j) prior(j) = setup.problems.front().parameters[static_cast<size_t>(j)].prior_mean;
+      for (int j = 0; j < p; ++j) prior(j) = setup.problems.front().prior[j].theta_nominal;
       h5.write_vector("/parameters/prior_mean", prior, per);
     }
     std::vector<std::string> names, groups, files, terminations;
