@@ -151,6 +151,30 @@ TEST(UtCalibration, FitAfterIsBetterThanFitBeforeAndReportsPerObservation) {
   EXPECT_NE(s.full_report().find("  o1: y 14800"), std::string::npos) << s.full_report();
 }
 
+TEST(UtCalibration, SummaryCarriesTheFitMetricsThePriorStdAndTheErrorsAgainstATruth) {
+  const LinearProblem lp;
+  const FunctionModel fm = lp.model();
+  UtOptions opt = serial_options();
+  opt.truth = lp.m0 * 1.1;
+  const UtSummary s = UtCalibration(fm, identity_parameters(lp.m0, lp.s0), observations(lp.y, lp.R), opt).run();
+  ASSERT_TRUE(s.ok()) << s.message;
+  const int m = static_cast<int>(lp.y.size());
+  // RMS normalised residual = sqrt(2 misfit / m); relative errors from y and z by hand.
+  EXPECT_NEAR(s.metrics_before.rms_normalised_residual, std::sqrt(2 * s.fit_before->misfit() / m), 1e-12);
+  EXPECT_NEAR(s.metrics_after.rms_normalised_residual, std::sqrt(2 * s.fit_after->misfit() / m), 1e-12);
+  EXPECT_LT(s.metrics_after.rms_normalised_residual, s.metrics_before.rms_normalised_residual);
+  EXPECT_NEAR(s.metrics_after.relative_error_percent(1),
+              100 * std::abs(lp.y(1) - s.fit_after->z(1)) / std::abs(lp.y(1)), 1e-10);
+  // Identity transforms: the prior std in theta is the std in eta.
+  EXPECT_LT((s.theta_prior_std - lp.s0).cwiseAbs().maxCoeff(), 1e-15);
+  EXPECT_LT((s.theta_prior - lp.m0).cwiseAbs().maxCoeff(), 1e-15);
+  ASSERT_TRUE(s.truth_error_percent);
+  for (int j = 0; j < lp.m0.size(); ++j) {
+    EXPECT_NEAR((*s.truth_error_percent)(j),
+                100 * std::abs(s.theta_of_eta_mean(j) - 1.1 * lp.m0(j)) / std::abs(1.1 * lp.m0(j)), 1e-10);
+  }
+}
+
 TEST(UtCalibration, ReportsTransformOfEtaMeanAndSigmaPointThetaMeanSeparately) {
   // z = log(theta / ref): linear in eta for a log transform, so the posterior in eta is Gaussian
   // with known moments; E[theta] = ref exp(mu + s^2 / 2) differs from ref exp(mu).
