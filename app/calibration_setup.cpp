@@ -9,6 +9,7 @@
 #include "observers/observation_builder.h"
 
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 namespace sigmaheart::app {
@@ -147,8 +148,8 @@ void parse_inline_observations(const ConfigNode& obs,
   }
 }
 
-estimation::CalibrationParameter parse_estimated(const Config& config, const std::string& name,
-                                                 const ConfigNode& node, std::string& unit) {
+estimation::PriorParameter parse_estimated(const Config& config, const std::string& name,
+                                           const ConfigNode& node) {
   const auto& space = config.simulator.parameters;
   const auto index = space.index(name);
   if (!index) {
@@ -157,7 +158,6 @@ estimation::CalibrationParameter parse_estimated(const Config& config, const std
     if (!guess.empty()) msg += " (did you mean '" + guess + "'?)";
     throw InputError(node.location(), msg);
   }
-  unit = space[*index].unit;
   node.check_keys({"prior", "spread", "transform", "bounds"});
   return parse_estimated_parameter(space[*index], node);
 }
@@ -222,27 +222,23 @@ CalibrationProblem parse_calibration_problem(const Config& config,
     est.fail("expected a map of parameter name -> {prior, spread, transform}");
   }
   for (const auto& name : est.keys()) {
-    std::string unit;
-    out.parameters.push_back(parse_estimated(config, name, est[name], unit));
-    out.parameter_units.push_back(unit);
+    out.prior.parameters.push_back(parse_estimated(config, name, est[name]));
   }
 
   const ConfigNode cal = root["calibration"];
   out.options = parse_ut_options(cal);
-  const std::string problem = out.options.validate(static_cast<int>(out.parameters.size()));
+  const std::string problem = out.options.validate(out.prior.size());
   if (!problem.empty()) cal.fail(problem);
   return out;
 }
 
 
-estimation::CalibrationParameter parse_estimated_parameter(const model::Parameter& p,
-                                                           const ConfigNode& node) {
-  estimation::CalibrationParameter c;
-  c.name = p.name;
-  c.prior_mean = node.optional_quantity("prior", p.unit, p.nominal);
-  if (c.prior_mean < p.lower || c.prior_mean > p.upper) {
+estimation::PriorParameter parse_estimated_parameter(const model::Parameter& p,
+                                                     const ConfigNode& node) {
+  const double prior_mean = node.optional_quantity("prior", p.unit, p.nominal);
+  if (prior_mean < p.lower || prior_mean > p.upper) {
     std::ostringstream s;
-    s << "prior of '" << p.name << "' = " << c.prior_mean << " " << p.unit
+    s << "prior of '" << p.name << "' = " << prior_mean << " " << p.unit
       << " lies outside the parameter's bounds [" << p.lower << ", " << p.upper << "]";
     node["prior"].fail(s.str());
   }
@@ -250,35 +246,36 @@ estimation::CalibrationParameter parse_estimated_parameter(const model::Paramete
   const ConfigNode spread = node.require_child("spread");
   const auto [value, spread_unit] = number_and_unit(spread);
   if (!(value > 0)) spread.fail("expected a positive spread");
+  estimation::SpreadKind spread_kind = estimation::SpreadKind::kAbsolute;
+  double prior_spread = value;
   if (spread_unit == "%") {
-    c.spread_kind = estimation::SpreadKind::kRelative;
-    c.prior_spread = value / 100.0;
+    spread_kind = estimation::SpreadKind::kRelative;
+    prior_spread = value / 100.0;
   } else if (spread_unit == "eta") {
-    c.spread_kind = estimation::SpreadKind::kEta;
-    c.prior_spread = value;
+    spread_kind = estimation::SpreadKind::kEta;
   } else if (spread_unit.empty()) {
     spread.fail("write the spread as a percentage of the prior ('30 %'), in the parameter's unit "
                 "('2e4 " + p.unit + "'), or in the transformed coordinate ('0.3 eta')");
-  } else {
-    c.spread_kind = estimation::SpreadKind::kAbsolute;
-    if (spread_unit == p.unit) {
-      c.prior_spread = value;
-    } else {
-      try {
-        c.prior_spread = model::units::convert(value, spread_unit, p.unit);
-      } catch (const std::invalid_argument& e) {
-        spread.fail(std::string("spread: ") + e.what() + " (parameter unit: " + p.unit + ")");
-      }
+  } else if (spread_unit != p.unit) {
+    try {
+      prior_spread = model::units::convert(value, spread_unit, p.unit);
+    } catch (const std::invalid_argument& e) {
+      spread.fail(std::string("spread: ") + e.what() + " (parameter unit: " + p.unit + ")");
     }
   }
 
   const std::string kind_text =
       node.has("transform") ? node["transform"].as_choice({"identity", "log", "logit"}) : "log";
-  c.transform.kind = *estimation::parse_transform_kind(kind_text);
-  if (c.transform.kind == estimation::TransformKind::kLog) {
-    if (!(c.prior_mean > 0)) node.fail("a log transform needs a positive prior");
-    c.transform.reference = c.prior_mean;
-  } else if (c.transform.kind == estimation::TransformKind::kLogit) {
+  estimation::Transform transform;
+  transform.kind = *estimation::parse_transform_kind(kind_text);
+  // The prior's bounds: the transform's range, which every sigma point respects.
+  double lower = -std::numeric_limits<double>::infinity();
+  double upper = std::numeric_limits<double>::infinity();
+  if (transform.kind == estimation::TransformKind::kLog) {
+    if (!(prior_mean > 0)) node.fail("a log transform needs a positive prior");
+    transform.reference = prior_mean;
+    lower = 0.0;
+  } else if (transform.kind == estimation::TransformKind::kLogit) {
     std::vector<double> b = {p.lower, p.upper};
     if (node.has("bounds")) {
       b = node["bounds"].as<std::vector<double>>();
@@ -290,14 +287,21 @@ estimation::CalibrationParameter parse_estimated_parameter(const model::Paramete
     if (b[0] < p.lower || b[1] > p.upper) {
       node["bounds"].fail("bounds must lie inside the parameter's own bounds");
     }
-    c.transform.lower = b[0];
-    c.transform.upper = b[1];
-    if (!(c.prior_mean > b[0] && c.prior_mean < b[1])) {
+    transform.lower = lower = b[0];
+    transform.upper = upper = b[1];
+    if (!(prior_mean > b[0] && prior_mean < b[1])) {
       node.fail("the prior must lie strictly inside the logit bounds");
     }
   }
-  const std::string problem = c.validate();
-  if (!problem.empty()) node.fail(problem);
+  if (const std::string t = transform.validate(); !t.empty()) node.fail("parameter '" + p.name + "': " + t);
+  estimation::PriorParameter c;
+  try {
+    c = estimation::PriorParameter::gaussian(p.name, p.unit, prior_mean, prior_spread, spread_kind,
+                                             transform, lower, upper);
+  } catch (const std::invalid_argument& e) {
+    node.fail(e.what());
+  }
+  if (const std::string problem = c.validate(); !problem.empty()) node.fail(problem);
   return c;
 }
 

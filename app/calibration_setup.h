@@ -41,8 +41,7 @@ struct CalibrationProblem {
 
   observers::ObservationSet observations;          // SI, display units kept
   std::unique_ptr<observers::Observer> observer;   // same names and order as observations
-  std::vector<estimation::CalibrationParameter> parameters;
-  std::vector<std::string> parameter_units;        // SI unit of each estimated parameter
+  estimation::Prior prior;                         // the estimated parameters, in config order
   estimation::UtOptions options;
 };
 
@@ -53,12 +52,13 @@ struct CalibrationProblem {
 CalibrationProblem parse_calibration_problem(const Config& config,
                                              const std::filesystem::path& observation_file = {});
 
-// One estimated parameter from {prior, spread, transform, bounds} with the conventions above:
+// One Gaussian prior parameter from {prior, spread, transform, bounds} with the conventions above:
 // prior defaults to the parameter's nominal value; spread "30 %" (relative), "2e4 Pa" (absolute,
 // any unit of the parameter's dimension) or "0.3 eta"; transform log (default), logit (bounds
 // default to the parameter's own) or identity. Keys are not checked here (callers allow their own
-// extra keys). `personalize` uses it too, so both commands read priors the same way.
-estimation::CalibrationParameter parse_estimated_parameter(const model::Parameter& p,
+// extra keys). `personalize` uses it too, so both commands read priors the same way. The prior's
+// bounds are the transform's range (the parameter's own bounds are checked for the prior mean).
+estimation::PriorParameter parse_estimated_parameter(const model::Parameter& p,
                                                            const ConfigNode& node);
 
 // A scalar "<number> <unit>" (or a bare number: empty unit) split into its value and unit text.

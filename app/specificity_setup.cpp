@@ -82,19 +82,16 @@ std::vector<CaseEntry> parse_cases(const Config& config) {
 // The calibration problem's estimated parameters: names, SI units and prior means (the same for
 // every case, one config).
 void read_estimated_parameters(const CalibrationProblem& problem, SpecificitySetup& s) {
-  s.prior_mean.resize(static_cast<Eigen::Index>(problem.parameters.size()));
-  for (const auto& cp : problem.parameters) {
-    s.prior_mean(static_cast<Eigen::Index>(s.names.size())) = cp.prior_mean;
-    s.names.push_back(cp.name);
-  }
-  s.units = problem.parameter_units;
+  s.prior_mean = problem.prior.nominal_theta();
+  s.names = problem.prior.names();
+  s.units = problem.prior.units();
 }
 
 // The one construction of a case's UtCalibration (see the header).
 estimation::UtCalibration make_calibration(const CalibrationProblem& problem,
                                            estimation::ForwardModel& model,
                                            const estimation::UtOptions& options) {
-  return estimation::UtCalibration(model, problem.parameters, problem.observations, options);
+  return estimation::UtCalibration(model, problem.prior, problem.observations, options);
 }
 
 }  // namespace

@@ -103,17 +103,14 @@ void BM_UtCalibrationLumpedSphereOneShot(benchmark::State& state) {
   const VolumeExtremes observer;
   const estimation::SimulatorForwardModel fm(sphere, observer, kEstimated);
   const auto& space = sphere.parameters();
-  std::vector<estimation::CalibrationParameter> pars;
+  estimation::Prior pars;
   Eigen::VectorXd truth(3);
   for (int j = 0; j < 3; ++j) {
-    estimation::CalibrationParameter p;
-    p.name = kEstimated[static_cast<size_t>(j)];
-    const double nominal = space[space.index_or_throw(p.name)].nominal;
-    p.prior_mean = nominal;
-    p.prior_spread = 0.1;
-    p.transform = {estimation::TransformKind::kLog, nominal};
-    pars.push_back(p);
-    truth(j) = nominal * 1.08;
+    const model::Parameter& q = space[space.index_or_throw(kEstimated[static_cast<size_t>(j)])];
+    pars.parameters.push_back(estimation::PriorParameter::gaussian(
+        q.name, q.unit, q.nominal, 0.1, estimation::SpreadKind::kRelative,
+        {estimation::TransformKind::kLog, q.nominal}, 0.0));
+    truth(j) = q.nominal * 1.08;
   }
   observers::ObservationSet obs;
   obs.names = {"EDV", "ESV"};

@@ -44,7 +44,7 @@ void BM_RoukfOneStep(benchmark::State& bench) {
   twin.filter.ensemble.threads = static_cast<int>(bench.range(0));
   twin.filter.ensemble.backend = estimation::Backend::kThreads;
   for (auto _ : bench) {
-    const auto s = estimation::run_roukf(model, one, twin.filter);
+    const auto s = estimation::run_roukf(model, twin.prior, one, twin.filter);
     if (!s.ok()) {
       bench.SkipWithError(s.message.c_str());
       return;
@@ -62,7 +62,7 @@ void BM_RoukfTwinExperiment(benchmark::State& bench) {
   twin.filter.ensemble.threads = static_cast<int>(bench.range(0));
   estimation::RoukfSummary s;
   for (auto _ : bench) {
-    s = estimation::run_roukf(model, twin.data, twin.filter);
+    s = estimation::run_roukf(model, twin.prior, twin.data, twin.filter);
     if (!s.ok()) {
       bench.SkipWithError(s.message.c_str());
       return;

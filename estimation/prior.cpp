@@ -205,6 +205,24 @@ Eigen::VectorXd Prior::std_eta() const {
 Eigen::VectorXd Prior::nominal_theta() const {
   return per_parameter(parameters, [](const PriorParameter& p) { return p.theta_nominal; });
 }
+Eigen::VectorXd Prior::theta_std(const Eigen::Ref<const Eigen::VectorXd>& eta,
+                                 const Eigen::Ref<const Eigen::VectorXd>& eta_std) const {
+  Eigen::VectorXd s(eta.size());
+  for (Eigen::Index i = 0; i < eta.size(); ++i) {
+    s(i) = std::abs(parameters[static_cast<size_t>(i)].transform.dtheta_deta(eta(i))) * eta_std(i);
+  }
+  return s;
+}
+
+Eigen::VectorXd Prior::prior_theta_std() const { return theta_std(mean_eta(), std_eta()); }
+
+std::optional<int> Prior::index(const std::string& name) const {
+  for (size_t i = 0; i < parameters.size(); ++i) {
+    if (parameters[i].name == name) return static_cast<int>(i);
+  }
+  return std::nullopt;
+}
+
 Eigen::VectorXd Prior::lower() const {
   return per_parameter(parameters, [](const PriorParameter& p) { return p.lower; });
 }

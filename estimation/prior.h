@@ -92,6 +92,13 @@ struct Prior {
   Eigen::MatrixXd covariance_eta() const;   // diag(std) C diag(std)
   Eigen::MatrixXd sqrt_covariance_eta() const;  // lower Cholesky factor of covariance_eta()
   Eigen::VectorXd nominal_theta() const;
+  // Delta-method standard deviation of theta = T(eta): |T'(eta_j)| eta_std_j per parameter.
+  Eigen::VectorXd theta_std(const Eigen::Ref<const Eigen::VectorXd>& eta,
+                            const Eigen::Ref<const Eigen::VectorXd>& eta_std) const;
+  // The prior's own: theta_std(mean_eta(), std_eta()).
+  Eigen::VectorXd prior_theta_std() const;
+  // Index of the parameter called `name`; nullopt when there is none.
+  std::optional<int> index(const std::string& name) const;
   Eigen::VectorXd lower() const;
   Eigen::VectorXd upper() const;
   Eigen::VectorXd to_theta(const Eigen::Ref<const Eigen::VectorXd>& eta) const;

@@ -91,42 +91,6 @@ const char* to_string(UtTermination termination) {
   return "unknown";
 }
 
-// ---------------------------------------------------------------------------------------------
-double CalibrationParameter::eta_mean() const { return transform.to_eta(prior_mean); }
-
-double CalibrationParameter::eta_std() const {
-  const double eta0 = eta_mean();
-  switch (spread_kind) {
-    case SpreadKind::kRelative:
-      return prior_spread * std::abs(prior_mean) / transform.dtheta_deta(eta0);
-    case SpreadKind::kAbsolute: return prior_spread / transform.dtheta_deta(eta0);
-    case SpreadKind::kEta: return prior_spread;
-  }
-  return kNaN;
-}
-
-std::string CalibrationParameter::validate() const {
-  const std::string who = "parameter '" + name + "': ";
-  if (name.empty()) return "calibration parameter without a name";
-  if (const std::string t = transform.validate(); !t.empty()) return who + t;
-  if (!std::isfinite(prior_mean)) return who + "prior mean is not finite";
-  try {
-    (void)eta_mean();
-  } catch (const std::domain_error& e) {
-    return who + "prior mean outside the transform's range: " + e.what();
-  }
-  if (!(prior_spread > 0) || !std::isfinite(prior_spread)) {
-    return who + "prior spread must be positive and finite";
-  }
-  const double s = eta_std();
-  if (!(s > 0) || !std::isfinite(s)) {
-    std::ostringstream m;
-    m << who << "prior std in eta is " << s << " (a relative spread needs a non-zero prior mean)";
-    return m.str();
-  }
-  return {};
-}
-
 std::string UtOptions::validate(int p) const {
   if (const std::string s = sigma.validate(p); !s.empty()) return s;
   std::ostringstream m;
@@ -213,16 +177,15 @@ std::string UtSummary::full_report() const {
 }
 
 // ---------------------------------------------------------------------------------------------
-UtCalibration::UtCalibration(const ForwardModel& model,
-                             std::vector<CalibrationParameter> parameters,
+UtCalibration::UtCalibration(const ForwardModel& model, Prior prior,
                              observers::ObservationSet observations, UtOptions options)
     : model_(model),
-      parameters_(std::move(parameters)),
+      prior_(std::move(prior)),
       observations_(std::move(observations)),
       options_(std::move(options)) {}
 
 std::string UtCalibration::validate() const {
-  const int p = static_cast<int>(parameters_.size());
+  const int p = prior_.size();
   if (p == 0) return "ut calibration: no parameters to estimate";
   if (p != model_.input_size()) {
     std::ostringstream s;
@@ -231,9 +194,12 @@ std::string UtCalibration::validate() const {
     return s.str();
   }
   const auto inputs = model_.input_names();
+  if (const std::string e = prior_.validate(); !e.empty()) return "ut calibration: " + e;
   for (int j = 0; j < p; ++j) {
-    const auto& par = parameters_[static_cast<size_t>(j)];
-    if (const std::string e = par.validate(); !e.empty()) return e;
+    const auto& par = prior_[j];
+    if (par.kind != PriorKind::kGaussian) {
+      return "ut calibration: parameter '" + par.name + "' needs a Gaussian prior";
+    }
     if (par.name != inputs[static_cast<size_t>(j)]) {
       return "ut calibration: parameter " + std::to_string(j) + " is '" + par.name +
              "' but the forward model's input is '" + inputs[static_cast<size_t>(j)] + "'";
@@ -254,12 +220,16 @@ std::string UtCalibration::validate() const {
              "' (ObservationSet::select reorders)";
     }
   }
+  if (options_.truth && options_.truth->size() != p) {
+    return "ut calibration: the truth has " + std::to_string(options_.truth->size()) +
+           " values for " + std::to_string(p) + " parameters";
+  }
   return options_.validate(p);
 }
 
 UtSummary UtCalibration::run() {
   if (const std::string e = validate(); !e.empty()) throw std::invalid_argument(e);
-  const int p = static_cast<int>(parameters_.size());
+  const int p = prior_.size();
   const int m = observations_.size();
   const Eigen::VectorXd& y = observations_.y;
 
@@ -272,21 +242,24 @@ UtSummary UtCalibration::run() {
                                                            : UtInnovation::kCenter;
   }
   summary.observation_names = observations_.names;
-  summary.eta_prior_mean.resize(p);
-  summary.eta_prior_std.resize(p);
-  for (int j = 0; j < p; ++j) {
-    const auto& par = parameters_[static_cast<size_t>(j)];
-    summary.names.push_back(par.name);
-    summary.eta_prior_mean(j) = par.eta_mean();
-    summary.eta_prior_std(j) = par.eta_std();
-  }
+  summary.names = prior_.names();
+  summary.eta_prior_mean = prior_.mean_eta();
+  summary.eta_prior_std = prior_.std_eta();
+  summary.theta_prior = prior_.nominal_theta();
+  summary.theta_prior_std = prior_.prior_theta_std();
   const Eigen::VectorXd& sigma0 = summary.eta_prior_std;
-  const Eigen::MatrixXd P0 = sigma0.array().square().matrix().asDiagonal();
+  const Eigen::MatrixXd P0 = prior_.covariance_eta();
 
-  auto to_theta = [&](const Eigen::VectorXd& eta) {
-    Eigen::VectorXd theta(p);
-    for (int j = 0; j < p; ++j) theta(j) = parameters_[static_cast<size_t>(j)].transform.to_theta(eta(j));
-    return theta;
+  auto to_theta = [&](const Eigen::VectorXd& eta) { return prior_.to_theta(eta); };
+  // A covariance square root, or nullopt when P is not finite or not decomposable (a numerical
+  // failure of the run, never an exception).
+  auto safe_sqrt = [](const Eigen::MatrixXd& P, bool* used_fallback) -> std::optional<Eigen::MatrixXd> {
+    if (!P.allFinite()) return std::nullopt;
+    try {
+      return covariance_sqrt(P, used_fallback);
+    } catch (const std::runtime_error&) {
+      return std::nullopt;
+    }
   };
   const Eigen::VectorXd r_std = observations_.R.diagonal().cwiseSqrt();
   auto make_fit = [&](const Eigen::VectorXd& theta, const Eigen::VectorXd& z,
@@ -374,7 +347,13 @@ UtSummary UtCalibration::run() {
     rec.eta_center = eta_c;
     rec.P_center = P_c;
     bool used_fallback = false;
-    const Eigen::MatrixXd S = covariance_sqrt(P_c, &used_fallback);
+    const std::optional<Eigen::MatrixXd> S_c = safe_sqrt(P_c, &used_fallback);
+    if (!S_c) {
+      summary.termination = UtTermination::kNumericalFailure;
+      summary.message = "iteration " + std::to_string(it) + ": no square root of the covariance";
+      break;
+    }
+    const Eigen::MatrixXd& S = *S_c;
     if (used_fallback) log_debug("UT iteration {}: covariance square root by eigen fallback", it);
     const Eigen::VectorXd theta_c = to_theta(eta_c);
 
@@ -526,19 +505,22 @@ UtSummary UtCalibration::run() {
   summary.eta_covariance = P_last;
   summary.eta_std = P_last.diagonal().cwiseMax(0.0).cwiseSqrt();
   summary.theta_of_eta_mean = to_theta(eta_last);
-  summary.theta_std.resize(p);
-  for (int j = 0; j < p; ++j) {
-    summary.theta_std(j) =
-        std::abs(parameters_[static_cast<size_t>(j)].transform.dtheta_deta(eta_last(j))) *
-        summary.eta_std(j);
+  summary.theta_std = prior_.theta_std(eta_last, summary.eta_std);
+  if (const std::optional<Eigen::MatrixXd> S_last = safe_sqrt(P_last, nullptr)) {
+    const Eigen::MatrixXd post = place_points(eta_last, *S_last, sp);
+    Eigen::MatrixXd theta_post(p, r);
+    for (int i = 0; i < r; ++i) theta_post.col(i) = to_theta(post.col(i));
+    summary.theta_sigma_mean = theta_post * sp.wm;
+    const Eigen::MatrixXd dT = theta_post.colwise() - summary.theta_sigma_mean;
+    summary.theta_sigma_std =
+        (dT.array().square().matrix() * sp.wc).cwiseMax(0.0).cwiseSqrt();
+  } else {
+    summary.theta_sigma_mean = Eigen::VectorXd::Constant(p, kNaN);
+    summary.theta_sigma_std = Eigen::VectorXd::Constant(p, kNaN);
   }
-  const Eigen::MatrixXd post = place_points(eta_last, covariance_sqrt(P_last), sp);
-  Eigen::MatrixXd theta_post(p, r);
-  for (int i = 0; i < r; ++i) theta_post.col(i) = to_theta(post.col(i));
-  summary.theta_sigma_mean = theta_post * sp.wm;
-  const Eigen::MatrixXd dT = theta_post.colwise() - summary.theta_sigma_mean;
-  summary.theta_sigma_std =
-      (dT.array().square().matrix() * sp.wc).cwiseMax(0.0).cwiseSqrt();
+  if (options_.truth) {
+    summary.truth_error_percent = relative_errors_percent(summary.theta_of_eta_mean, *options_.truth);
+  }
 
   if (options_.evaluate_fit) {
     summary.fit_before = first_center_fit;
@@ -556,6 +538,11 @@ UtSummary UtCalibration::run() {
       }
     }
   }
+  auto metrics_of = [&](const std::optional<UtFit>& f) {
+    return f && f->z.size() == m ? fit_metrics(y, f->z, r_std) : missing_fit_metrics(m);
+  };
+  summary.metrics_before = metrics_of(summary.fit_before);
+  summary.metrics_after = metrics_of(summary.fit_after);
   if (summary.message.empty()) {
     std::ostringstream s;
     s << to_string(summary.termination);

@@ -40,6 +40,7 @@
 #pragma once
 
 #include "estimation/ensemble.h"
+#include "estimation/fit_metrics.h"
 #include "estimation/prior.h"
 #include "estimation/sigma_points.h"
 #include "estimation/transform.h"
@@ -55,17 +56,6 @@
 
 namespace sigmaheart::estimation {
 
-
-struct CalibrationParameter {
-  std::string name;          // must equal the ForwardModel's input_names() entry, in order
-  double prior_mean = 0.0;   // theta, SI; must lie inside the transform's range
-  double prior_spread = 0.2;
-  SpreadKind spread_kind = SpreadKind::kRelative;
-  Transform transform;
-  std::string validate() const;
-  double eta_mean() const;  // transform.to_eta(prior_mean)
-  double eta_std() const;   // the prior std in eta, per spread_kind
-};
 
 enum class UtMode { kOneShot, kIterateKeepSpread, kIterateInflate };
 const char* to_string(UtMode mode);
@@ -110,6 +100,9 @@ struct UtOptions {
   EnsembleOptions ensemble;                  // backend, threads (its progress is overridden)
   // Called (serialised, possibly from worker threads) after each finished member.
   std::function<void(const UtProgress&)> progress;
+  // Twin experiments: the true theta (SI, one per estimated parameter); the Summary then carries
+  // the estimate's relative errors against it.
+  std::optional<Eigen::VectorXd> truth;
   std::string validate(int p) const;
 };
 
@@ -185,6 +178,8 @@ struct UtSummary {
   std::vector<std::string> observation_names;
 
   Eigen::VectorXd eta_prior_mean, eta_prior_std;
+  Eigen::VectorXd theta_prior;          // the prior's centre in theta (PriorParameter::theta_nominal)
+  Eigen::VectorXd theta_prior_std;      // delta method at the prior mean
   Eigen::VectorXd eta_mean;             // final estimate (last accepted eta+; prior if none)
   Eigen::MatrixXd eta_covariance;       // last P+ (prior if none)
   Eigen::VectorXd eta_std;
@@ -198,6 +193,10 @@ struct UtSummary {
 
   std::optional<UtFit> fit_before;      // at the prior mean
   std::optional<UtFit> fit_after;       // at theta_of_eta_mean
+  // Relative errors and RMS normalised residual of the two fits (NaN when a fit is missing).
+  FitMetrics metrics_before, metrics_after;
+  // 100 |theta_of_eta_mean - truth| / |truth| per parameter, when UtOptions::truth was given.
+  std::optional<Eigen::VectorXd> truth_error_percent;
 
   std::vector<UtIteration> iterations;
   std::vector<UtAction> actions;
@@ -216,19 +215,21 @@ struct UtSummary {
 
 class UtCalibration {
  public:
-  // model must outlive the UtCalibration (run() clones it, once per worker). parameters: one per ForwardModel input, same names and order; observations: same names and
-  // order as ForwardModel::outputs(). Checked in validate()/run().
-  UtCalibration(const ForwardModel& model, std::vector<CalibrationParameter> parameters,
+  // model must outlive the UtCalibration (run() clones it, once per worker). prior: one Gaussian
+  // parameter per ForwardModel input, same names and order; observations: same names and order
+  // as ForwardModel::outputs(). Checked in validate()/run().
+  UtCalibration(const ForwardModel& model, Prior prior,
                 observers::ObservationSet observations, UtOptions options = {});
 
   // Empty when the problem and options are consistent, else the first problem found.
   std::string validate() const;
-  // Throws std::invalid_argument when validate() is not empty; member failures never throw.
+  // Throws std::invalid_argument when validate() is not empty (bad input); member failures and
+  // numerical failures never throw, they end the run with a termination (UtSummary::ok()).
   UtSummary run();
 
  private:
   const ForwardModel& model_;
-  std::vector<CalibrationParameter> parameters_;
+  Prior prior_;
   observers::ObservationSet observations_;
   UtOptions options_;
 };

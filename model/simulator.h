@@ -173,6 +173,13 @@ class SteppableSimulator : public Simulator {
   // The channel values (in the order of channels()) at the given state.
   virtual Eigen::VectorXd sample(const State& state,
                                  const Eigen::Ref<const Eigen::VectorXd>& theta) const = 0;
+
+  // A copy whose time step is this one's times `factor` (the ROUKF retries a failed member with
+  // factor 2^-level); nullptr when the simulator has no such control.
+  virtual std::unique_ptr<SteppableSimulator> with_time_step_factor(double factor) const {
+    (void)factor;
+    return nullptr;
+  }
 };
 
 // Closest candidate by edit distance, for "did you mean" messages; empty if none is close.

@@ -10,10 +10,6 @@
 namespace sigmaheart::estimation {
 namespace {
 
-std::string numbered(const std::string& prefix, int i) {
-  return prefix + (i < 10 ? "0" : "") + std::to_string(i);
-}
-
 // Standard normal numbers by Box-Muller on mt19937_64 (std::normal_distribution differs between
 // standard libraries; this stream does not).
 class Normal {
@@ -63,25 +59,32 @@ RegionalTwin make_regional_twin(const model::lumped::RegionalVentricle& model,
   model::lumped::RegionalVentricle sim = model;
   const model::ParameterSpace& space = sim.parameters();
   const Eigen::VectorXd nominal = space.nominal();
-  const double period = nominal(space.index_or_throw("period"));
+  const std::optional<int> period_index = space.find("period");
+  const std::vector<int> sigma0 = space.regional("contractility");
+  if (!period_index || sigma0.size() != 17) {
+    throw std::invalid_argument("regional twin: the model needs a 'period' parameter and 17 "
+                                "'contractility' parameters (tags)");
+  }
+  const double period = nominal(*period_index);
 
   RegionalTwin twin;
-  twin.nominal_sigma0 = nominal(space.index_or_throw("sigma0_01"));
+  twin.nominal_sigma0 = nominal(sigma0.front());
   twin.truth_theta = nominal;
-  for (int s : o.infarct_segments) twin.truth_theta(space.index_or_throw(numbered("sigma0_", s))) *= o.infarct_fraction;
+  for (int s : o.infarct_segments) twin.truth_theta(sigma0[static_cast<size_t>(s - 1)]) *= o.infarct_fraction;
   twin.truth_sigma0.resize(17);
-  for (int s = 1; s <= 17; ++s) twin.truth_sigma0(s - 1) = twin.truth_theta(space.index_or_throw(numbered("sigma0_", s)));
+  for (int s = 1; s <= 17; ++s) twin.truth_sigma0(s - 1) = twin.truth_theta(sigma0[static_cast<size_t>(s - 1)]);
 
   // Truth: periodic beat, regional volumes at the frames, Gaussian noise.
   twin.truth_periodic = periodic_state(sim, twin.truth_theta, o.warmup_beats, period, "truth");
   const auto channels = sim.channels();
-  std::vector<int> seg_channels;
-  for (int s = 1; s <= 17; ++s) {
-    const std::string name = numbered("V_seg", s);
-    twin.data.channels.push_back(name);
-    for (size_t c = 0; c < channels.size(); ++c) {
-      if (channels[c].name == name) seg_channels.push_back(static_cast<int>(c));
-    }
+  std::vector<int> seg_channels(17, -1);
+  for (size_t c = 0; c < channels.size(); ++c) {
+    const int s = channels[c].segment;
+    if (channels[c].family == "regional_volume" && s >= 1 && s <= 17) seg_channels[static_cast<size_t>(s - 1)] = static_cast<int>(c);
+  }
+  for (int c : seg_channels) {
+    if (c < 0) throw std::invalid_argument("regional twin: the model lacks a 'regional_volume' channel");
+    twin.data.channels.push_back(channels[static_cast<size_t>(c)].name);
   }
   const int F = o.frames_per_beat;
   twin.data.times.resize(F);
@@ -100,25 +103,20 @@ RegionalTwin make_regional_twin(const model::lumped::RegionalVentricle& model,
   // initial state for its own parameters and is spun up over the warm-up beats by the first
   // prediction, so that the ensemble carries how the periodic state depends on sigma0.
   RoukfOptions& f = twin.filter;
-  for (int seg = 1; seg <= 17; ++seg) {
-    RoukfParameter q;
-    q.name = numbered("sigma0_", seg);
-    q.transform = Transform{TransformKind::kLog, twin.nominal_sigma0};
-    q.prior_eta = 0.0;
-    q.prior_std_eta = o.prior_std_eta;
-    f.parameters.push_back(q);
+  for (int i : sigma0) {
+    const model::Parameter& q = space[i];
+    twin.prior.parameters.push_back(PriorParameter::gaussian(
+        q.name, q.unit, twin.nominal_sigma0, o.prior_std_eta, SpreadKind::kEta,
+        Transform{TransformKind::kLog, twin.nominal_sigma0}, 0.0));
   }
+  f.truth = twin.truth_sigma0;
   f.R = Eigen::MatrixXd::Identity(17, 17) * std::pow(o.r_factor * o.noise_std, 2);
   f.forgetting = o.forgetting;
   f.beats = o.beats;
   f.period = period;
   f.base_theta = nominal;
   f.initial_state_per_member = true;
-  f.refine = [](const model::SteppableSimulator& m, int level) -> std::unique_ptr<model::SteppableSimulator> {
-    const auto* r = dynamic_cast<const model::lumped::RegionalVentricle*>(&m);
-    if (r == nullptr) return nullptr;
-    return r->with_time_step(r->options().numerics.dt / std::pow(2.0, level));
-  };
+  f.refine = refine_by_time_step;
   return twin;
 }
 
@@ -126,13 +124,7 @@ Eigen::MatrixXd per_beat_relative_errors(const RoukfSummary& summary,
                                          const Eigen::VectorXd& truth_sigma0) {
   int beats = 0;
   for (const auto& st : summary.steps) beats = std::max(beats, st.beat + 1);
-  Eigen::MatrixXd err = Eigen::MatrixXd::Constant(beats, truth_sigma0.size(), std::nan(""));
-  for (const auto& st : summary.steps) {
-    if (st.theta.size() != truth_sigma0.size()) continue;  // a step that stopped on a failure
-    err.row(st.beat) =
-        ((st.theta - truth_sigma0).cwiseAbs().array() / truth_sigma0.array()).matrix().transpose();
-  }
-  return err;
+  return pass_errors_percent(summary, truth_sigma0, beats) / 100.0;
 }
 
 }  // namespace sigmaheart::estimation

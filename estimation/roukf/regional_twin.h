@@ -39,13 +39,15 @@ struct RegionalTwin {
   Eigen::VectorXd truth_sigma0;      // 17 true contractilities [Pa]
   double nominal_sigma0 = 0.0;       // prior (uniform) contractility [Pa]
   model::State truth_periodic;       // the truth's state after the warm-up beats
-  RoukfData data;                    // V_seg01..17 at frames of the beat after the warm-up
+  RoukfData data;                    // the 17 regional volumes at frames of the beat after the warm-up
 
-  RoukfOptions filter;               // parameters sigma0_01..17 (log), R, beats, initial state
+  Prior prior;                       // the 17 contractilities (log, centred on the nominal)
+  RoukfOptions filter;               // R, beats, spin-up, refinement; truth = truth_sigma0
 };
 
-// Builds the truth, the noisy data and the filter options. Throws std::runtime_error if the
-// truth run fails.
+// Builds the truth, the noisy data, the prior and the filter options. The segments are found by
+// their tags (parameters of family "contractility", channels of family "regional_volume").
+// Throws std::runtime_error if the truth run fails.
 RegionalTwin make_regional_twin(const model::lumped::RegionalVentricle& model,
                                 const RegionalTwinOptions& options);
 

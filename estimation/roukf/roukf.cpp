@@ -1,5 +1,6 @@
 #include "estimation/roukf/roukf.h"
 
+#include "estimation/fit_metrics.h"
 #include "estimation/roukf/steppable_forward_model.h"
 
 #include <Eigen/Cholesky>
@@ -35,6 +36,7 @@ const char* to_string(RoukfTermination t) {
     case RoukfTermination::kMemberFailed: return "member failed";
     case RoukfTermination::kCancelled: return "cancelled";
     case RoukfTermination::kInvalidInput: return "invalid input";
+    case RoukfTermination::kNumericalFailure: return "numerical failure";
   }
   return "unknown";
 }
@@ -64,16 +66,6 @@ std::string RoukfData::validate() const {
 
 std::string RoukfOptions::validate() const {
   std::ostringstream s;
-  if (parameters.empty()) return "roukf: no estimated parameters";
-  for (const auto& q : parameters) {
-    if (q.name.empty()) return "roukf: a parameter without a name";
-    if (const std::string e = q.transform.validate(); !e.empty()) {
-      return "roukf: parameter " + q.name + ": " + e;
-    }
-    if (!(q.prior_std_eta > 0 && std::isfinite(q.prior_std_eta)) || !std::isfinite(q.prior_eta)) {
-      return "roukf: parameter " + q.name + ": prior_std_eta must be positive, prior_eta finite";
-    }
-  }
   if (R.rows() != R.cols() || R.rows() == 0) return "roukf: R must be a non-empty square matrix";
   if (!R.allFinite() || (R - R.transpose()).cwiseAbs().maxCoeff() > 1e-12 * R.cwiseAbs().maxCoeff()) {
     return "roukf: R must be finite and symmetric";
@@ -123,20 +115,33 @@ double log_det(const Eigen::LLT<Eigen::MatrixXd>& llt) {
 
 }  // namespace
 
-RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const RoukfData& data,
-                       const RoukfOptions& options) {
+RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const Prior& prior,
+                       const RoukfData& data, const RoukfOptions& options) {
   const auto wall_start = std::chrono::steady_clock::now();
   RoukfSummary summary;
   auto finish = [&](RoukfTermination t, std::string message) -> RoukfSummary& {
     summary.termination = t;
     summary.message = std::move(message);
+    if (options.truth && t != RoukfTermination::kInvalidInput) {
+      summary.pass_error_percent = pass_errors_percent(summary, *options.truth, options.beats);
+      summary.passes_to_within_10_percent = passes_to_within(summary.pass_error_percent, 10.0);
+    }
     summary.wall_seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
     return summary;
   };
 
   // ---- Up-front checks (tier 2: bad input reported before any work).
+  if (std::string e = prior.validate(); !e.empty()) return finish(RoukfTermination::kInvalidInput, "roukf: " + e);
+  for (const auto& q : prior.parameters) {
+    if (q.kind != PriorKind::kGaussian) {
+      return finish(RoukfTermination::kInvalidInput, "roukf: parameter " + q.name + " needs a Gaussian prior");
+    }
+  }
   if (std::string e = options.validate(); !e.empty()) return finish(RoukfTermination::kInvalidInput, e);
+  if (options.truth && options.truth->size() != prior.size()) {
+    return finish(RoukfTermination::kInvalidInput, "roukf: the truth has the wrong size");
+  }
   if (std::string e = data.validate(); !e.empty()) return finish(RoukfTermination::kInvalidInput, e);
   if (options.R.rows() != static_cast<Eigen::Index>(data.channels.size())) {
     return finish(RoukfTermination::kInvalidInput,
@@ -149,9 +154,9 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const RoukfDa
                   "roukf: the frames span more than one period; repeated passes would overlap");
   }
   const model::ParameterSpace& space = simulator.parameters();
-  const int p = static_cast<int>(options.parameters.size());
+  const int p = prior.size();
   std::vector<int> estimated;
-  for (const auto& q : options.parameters) {
+  for (const auto& q : prior.parameters) {
     const auto idx = space.index(q.name);
     if (!idx) {
       const std::string near = model::closest_match(q.name, space.names());
@@ -198,16 +203,14 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const RoukfDa
 
   auto theta_of = [&](const Eigen::Ref<const Eigen::VectorXd>& eta) {
     Eigen::VectorXd theta = base;
-    for (int j = 0; j < p; ++j) theta(estimated[j]) = options.parameters[j].transform.to_theta(eta(j));
+    for (int j = 0; j < p; ++j) theta(estimated[j]) = prior[j].to_theta(eta(j));
     return theta;
   };
 
   // ---- Initialisation (step 0): x = (y0, eta0), L = [0; S0], U = I.
-  Eigen::VectorXd eta0(p), s0(p);
-  for (int j = 0; j < p; ++j) {
-    eta0(j) = options.parameters[j].prior_eta;
-    s0(j) = options.parameters[j].prior_std_eta;
-  }
+  const Eigen::VectorXd eta0 = prior.mean_eta();
+  summary.theta_prior = prior.nominal_theta();
+  summary.theta_prior_std = prior.prior_theta_std();
   std::unique_ptr<model::SteppableSimulator> local;
   try {
     local = SteppableForwardModel::clone_steppable(simulator);
@@ -224,7 +227,7 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const RoukfDa
   Eigen::VectorXd x(n);
   x << init.x, eta0;
   Eigen::MatrixXd L = Eigen::MatrixXd::Zero(n, p);
-  L.bottomRows(p) = s0.asDiagonal();
+  L.bottomRows(p) = prior.sqrt_covariance_eta();
   Eigen::MatrixXd U = Eigen::MatrixXd::Identity(p, p);
   double t_prev = init.time;
 
@@ -233,6 +236,13 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const RoukfDa
   Ensemble ensemble(prototype, options.ensemble);
 
   Eigen::MatrixXd X(n, r), Z(m_all, r);
+  // Ends the run on a numerical failure, keeping the steps done and the last good factors.
+  auto numerical_failure = [&](const std::string& why) -> RoukfSummary& {
+    summary.state = model::State{t_prev, x.head(ny)};
+    summary.L = L;
+    summary.U = U;
+    return finish(RoukfTermination::kNumericalFailure, "roukf: " + why);
+  };
   std::vector<MemberOutcome> outcomes(static_cast<size_t>(r));
 
   // Advances members x + spread * L V_i from t_prev to t; fills X, Z and outcomes. Each member's
@@ -325,10 +335,13 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const RoukfDa
 
       // 1. Sampling: C = chol(U^-1), L <- L C, U = I.
       {
-        const Eigen::MatrixXd Uinv =
-            Eigen::LLT<Eigen::MatrixXd>(U).solve(Eigen::MatrixXd::Identity(p, p));
-        const Eigen::MatrixXd C = Eigen::LLT<Eigen::MatrixXd>(0.5 * (Uinv + Uinv.transpose())).matrixL();
-        L = L * C;
+        const Eigen::LLT<Eigen::MatrixXd> Ullt(U);
+        const Eigen::MatrixXd Uinv = Ullt.solve(Eigen::MatrixXd::Identity(p, p));
+        const Eigen::LLT<Eigen::MatrixXd> Cllt(0.5 * (Uinv + Uinv.transpose()));
+        if (Ullt.info() != Eigen::Success || Cllt.info() != Eigen::Success || !Uinv.allFinite()) {
+          return numerical_failure("U is not positive definite at t = " + std::to_string(t) + " s");
+        }
+        L = L * Eigen::MatrixXd(Cllt.matrixL());
         U.setIdentity();
       }
 
@@ -413,6 +426,10 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const RoukfDa
         const Eigen::MatrixXd Unew = Eigen::MatrixXd::Identity(p, p) + HL.transpose() * RinvHL;
         const Eigen::LLT<Eigen::MatrixXd> Ullt(Unew);
         const Eigen::VectorXd coeff = Ullt.solve(HL.transpose() * Rinvd);
+        if (Ullt.info() != Eigen::Success || !coeff.allFinite()) {
+          return numerical_failure("the analysis at t = " + std::to_string(t) +
+                                   " s is not finite (U = I + HL^T R^-1 HL not positive definite)");
+        }
         // S^-1 d = R^-1 d - R^-1 HL U^-1 HL^T R^-1 d (Woodbury), log det S = log det R + log det U.
         const Eigen::VectorXd Sinvd = Rinvd - RinvHL * coeff;
         rec.nis = d.dot(Sinvd);
@@ -431,13 +448,16 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const RoukfDa
       // 4. Record.
       const Eigen::MatrixXd Leta = L.bottomRows(p);
       const Eigen::MatrixXd Peta = Leta * Eigen::LLT<Eigen::MatrixXd>(U).solve(Leta.transpose());
+      if (!x.allFinite() || !Peta.allFinite()) {
+        return numerical_failure("non-finite state or covariance at t = " + std::to_string(t) + " s");
+      }
       rec.eta = x.tail(p);
       rec.eta_std = Peta.diagonal().cwiseMax(0.0).cwiseSqrt();
       rec.theta.resize(p);
       rec.theta_lower.resize(p);
       rec.theta_upper.resize(p);
       for (int j = 0; j < p; ++j) {
-        const Transform& tr = options.parameters[j].transform;
+        const Transform& tr = prior[j].transform;
         const double a = tr.to_theta(rec.eta(j) - 2 * rec.eta_std(j));
         const double b = tr.to_theta(rec.eta(j) + 2 * rec.eta_std(j));
         rec.theta(j) = tr.to_theta(rec.eta(j));
@@ -454,6 +474,7 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const RoukfDa
       summary.theta_lower = rec.theta_lower;
       summary.theta_upper = rec.theta_upper;
       summary.eta_covariance = Peta;
+      summary.theta_std = prior.theta_std(rec.eta, rec.eta_std);
       t_prev = t;
       summary.steps.push_back(std::move(rec));
       if (options.on_step && !options.on_step(summary.steps.back())) {
@@ -468,6 +489,29 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const RoukfDa
   summary.L = L;
   summary.U = U;
   return finish(RoukfTermination::kCompleted, "all frames assimilated");
+}
+
+std::unique_ptr<model::SteppableSimulator> refine_by_time_step(const model::SteppableSimulator& s,
+                                                               int level) {
+  return s.with_time_step_factor(std::ldexp(1.0, -level));
+}
+
+Eigen::MatrixXd pass_errors_percent(const RoukfSummary& summary, const Eigen::VectorXd& truth,
+                                    int passes) {
+  Eigen::MatrixXd err = Eigen::MatrixXd::Constant(passes, truth.size(), std::nan(""));
+  for (const auto& s : summary.steps) {
+    if (s.theta.size() != truth.size() || s.beat >= passes) continue;
+    err.row(s.beat) = relative_errors_percent(s.theta, truth).transpose();
+  }
+  return err;
+}
+
+int passes_to_within(const Eigen::MatrixXd& pass_error_percent, double percent) {
+  for (Eigen::Index b = 0; b < pass_error_percent.rows(); ++b) {
+    const auto row = pass_error_percent.row(b);
+    if (row.allFinite() && row.maxCoeff() <= percent) return static_cast<int>(b) + 1;
+  }
+  return -1;
 }
 
 std::string RoukfSummary::brief_report() const {

@@ -21,6 +21,7 @@
 #pragma once
 
 #include "estimation/ensemble.h"
+#include "estimation/prior.h"
 #include "estimation/sigma_points.h"
 #include "estimation/transform.h"
 #include "model/simulator.h"
@@ -34,15 +35,6 @@
 #include <vector>
 
 namespace sigmaheart::estimation {
-
-// One estimated parameter: a name of the simulator's ParameterSpace, its transform and its prior.
-struct RoukfParameter {
-  std::string name;
-  Transform transform;        // eta -> theta
-  double prior_eta = 0.0;     // prior mean in eta (for a log transform with reference = the prior
-                              // value, 0)
-  double prior_std_eta = 0.5; // prior standard deviation in eta, > 0
-};
 
 // Measured channels of the simulator's sample() at frame times. A NaN entry is a missing value
 // (that channel is not used at that frame); a frame with every entry missing is a prediction-only
@@ -76,7 +68,7 @@ struct RoukfAction {
   model::Status status;      // the failure that triggered it
 };
 
-// Per-step record. Vectors over parameters are in the order of RoukfOptions::parameters; vectors
+// Per-step record. Vectors over parameters are in the order of the Prior; vectors
 // over channels in the order of RoukfData::channels (NaN where missing).
 struct RoukfStep {
   int index = 0;          // step number (0-based)
@@ -102,7 +94,6 @@ struct RoukfStep {
 };
 
 struct RoukfOptions {
-  std::vector<RoukfParameter> parameters;  // what is estimated (p >= 1)
   // Observation noise covariance over RoukfData::channels (SI^2), symmetric positive definite.
   // Missing values select the sub-matrix of the present channels.
   Eigen::MatrixXd R;
@@ -134,7 +125,8 @@ struct RoukfOptions {
   double shrink = 0.5;      // sigma spread factor for the re-run after a failure, in (0, 1)
   double inflation = 0.1;   // covariance inflation when an analysis is skipped: P *= 1 + inflation
   // A copy of the simulator with its time step divided by 2^level, or nullptr when the simulator
-  // offers no such control. Empty: no retries.
+  // offers no such control. Empty: no retries. refine_by_time_step() uses
+  // SteppableSimulator::with_time_step_factor.
   std::function<std::unique_ptr<model::SteppableSimulator>(const model::SteppableSimulator&,
                                                            int level)>
       refine;
@@ -142,12 +134,18 @@ struct RoukfOptions {
   bool record_factors = false;  // keep x, L, U after every step (tests, diagnostics)
   // Called after every step; return false to stop (termination kCancelled).
   std::function<bool(const RoukfStep&)> on_step;
+  // Twin experiments: the true theta of every estimated parameter (Prior order, SI). The summary
+  // then carries the relative error after each pass.
+  std::optional<Eigen::VectorXd> truth;
 
   // Empty when the fields are consistent, else a message naming the field.
   std::string validate() const;
 };
 
-enum class RoukfTermination { kCompleted, kMemberFailed, kCancelled, kInvalidInput };
+// How a run ended. Bad input is reported up front as kInvalidInput; failed members (past the
+// failure policy) and numerical failures (a covariance factor that is not positive definite, a
+// non-finite update) end the run with the steps done so far; run_roukf never throws for them.
+enum class RoukfTermination { kCompleted, kMemberFailed, kCancelled, kInvalidInput, kNumericalFailure };
 const char* to_string(RoukfTermination t);
 
 struct RoukfSummary {
@@ -158,6 +156,14 @@ struct RoukfSummary {
   // Final estimate.
   Eigen::VectorXd eta, theta, theta_lower, theta_upper;
   Eigen::MatrixXd eta_covariance;  // P_eta = L_eta U^-1 L_eta^T
+  Eigen::VectorXd theta_std;       // delta method: |T'(eta)| sqrt(diag P_eta)
+  Eigen::VectorXd theta_prior;     // the prior's centre (PriorParameter::theta_nominal)
+  Eigen::VectorXd theta_prior_std; // delta method at the prior mean
+  // With RoukfOptions::truth: 100 |theta - truth| / |truth| after the last step of each pass
+  // (rows: passes, NaN for a pass not reached), and the first pass (1-based) after which every
+  // parameter is within 10 % (-1: never).
+  Eigen::MatrixXd pass_error_percent;
+  int passes_to_within_10_percent = -1;
   model::State state;              // final analysed model state
   Eigen::MatrixXd L, U;            // final factors (x = (state.x, eta))
   int members = 0;                 // r
@@ -167,13 +173,26 @@ struct RoukfSummary {
   double wall_seconds = 0.0;
 
   bool ok() const { return termination == RoukfTermination::kCompleted; }
+  bool has_estimate() const { return theta.size() == static_cast<Eigen::Index>(parameter_names.size()); }
   std::string brief_report() const;  // one line
   std::string full_report() const;   // per parameter: estimate, +-2 sigma
 };
 
-// Runs the filter. The simulator is the prototype: each worker gets its own clone; the prototype
-// itself is not advanced. Never throws for bad input or member failures (see termination).
-RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const RoukfData& data,
-                       const RoukfOptions& options);
+// Runs the filter. prior: one Gaussian parameter per estimated simulator parameter (by name).
+// The simulator is the prototype: each worker gets its own clone; the prototype itself is not
+// advanced. Never throws for bad input, member or numerical failures (see termination).
+RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const Prior& prior,
+                       const RoukfData& data, const RoukfOptions& options);
+
+// RoukfOptions::refine through SteppableSimulator::with_time_step_factor(2^-level).
+std::unique_ptr<model::SteppableSimulator> refine_by_time_step(const model::SteppableSimulator& s,
+                                                               int level);
+
+// 100 |theta - truth| / |truth| after the last step of each pass (rows: `passes`), NaN rows for
+// passes not reached.
+Eigen::MatrixXd pass_errors_percent(const RoukfSummary& summary, const Eigen::VectorXd& truth,
+                                    int passes);
+// First pass (1-based) whose row is finite and at most `percent` everywhere; -1 when none.
+int passes_to_within(const Eigen::MatrixXd& pass_error_percent, double percent);
 
 }  // namespace sigmaheart::estimation

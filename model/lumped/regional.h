@@ -108,6 +108,9 @@ class RegionalVentricle final : public SteppableSimulator {
   int patches() const { return n_; }
   // A copy with another time step (the ROUKF's refine hook halves it on a failed member).
   std::unique_ptr<RegionalVentricle> with_time_step(double dt) const;
+  std::unique_ptr<SteppableSimulator> with_time_step_factor(double factor) const override {
+    return with_time_step(options_.numerics.dt * factor);
+  }
 
   // V_lv, P_lv, P_ar, P_at, q_ar, q_at, phase (as the sphere), P_d, then V_seg01..V_segN [m^3].
   std::vector<Channel> channels() const override;

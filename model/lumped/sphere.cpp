@@ -225,6 +225,7 @@ ParameterSpace LumpedSphere::default_parameters() {
       "140/160/180 mL]");
   set(kBexp, "1", 1.0, 0.0, 50.0, "exponent b_exp of the passive stiffening (J1 - 3)^2 [T]");
   p[kSigma0].family = "contractility";
+  p[kPeriod].family = "period";
   return ParameterSpace(std::move(p));
 }
 

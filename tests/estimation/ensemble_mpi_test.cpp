@@ -65,11 +65,9 @@ TEST(EnsembleMpi, UtCalibrationGivesTheSameEstimateOnEveryRankAsSerially) {
   obs.units = {"1", "1", "1"};
   obs.y = Eigen::Vector3d(1.2, 0.3, 0.1);
   obs.R = Eigen::Matrix3d::Identity() * 0.01;
-  std::vector<CalibrationParameter> pars(2);
-  pars[0].name = "t0";
-  pars[0].prior_mean = 0.5;
-  pars[1].name = "t1";
-  pars[1].prior_mean = 0.4;
+  Prior pars;
+  pars.parameters = {PriorParameter::gaussian("t0", "1", 0.5, 0.2, SpreadKind::kRelative, {}),
+                     PriorParameter::gaussian("t1", "1", 0.4, 0.2, SpreadKind::kRelative, {})};
   UtOptions opt;
   opt.mode = UtMode::kIterateKeepSpread;
   opt.max_iterations = 5;

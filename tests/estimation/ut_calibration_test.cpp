@@ -61,16 +61,11 @@ observers::ObservationSet observations(const Eigen::VectorXd& y, const Eigen::Ma
   return obs;
 }
 
-std::vector<CalibrationParameter> identity_parameters(const Eigen::VectorXd& mean,
-                                                      const Eigen::VectorXd& std) {
-  std::vector<CalibrationParameter> out;
+Prior identity_parameters(const Eigen::VectorXd& mean, const Eigen::VectorXd& std) {
+  Prior out;
   for (int j = 0; j < mean.size(); ++j) {
-    CalibrationParameter par;
-    par.name = indexed("t", j);
-    par.prior_mean = mean(j);
-    par.prior_spread = std(j);
-    par.spread_kind = SpreadKind::kEta;
-    out.push_back(par);
+    out.parameters.push_back(
+        PriorParameter::gaussian(indexed("t", j), "1", mean(j), std(j), SpreadKind::kEta, {}));
   }
   return out;
 }
@@ -156,6 +151,30 @@ TEST(UtCalibration, FitAfterIsBetterThanFitBeforeAndReportsPerObservation) {
   EXPECT_NE(s.full_report().find("  o1: y 14800"), std::string::npos) << s.full_report();
 }
 
+TEST(UtCalibration, SummaryCarriesTheFitMetricsThePriorStdAndTheErrorsAgainstATruth) {
+  const LinearProblem lp;
+  const FunctionModel fm = lp.model();
+  UtOptions opt = serial_options();
+  opt.truth = lp.m0 * 1.1;
+  const UtSummary s = UtCalibration(fm, identity_parameters(lp.m0, lp.s0), observations(lp.y, lp.R), opt).run();
+  ASSERT_TRUE(s.ok()) << s.message;
+  const int m = static_cast<int>(lp.y.size());
+  // RMS normalised residual = sqrt(2 misfit / m); relative errors from y and z by hand.
+  EXPECT_NEAR(s.metrics_before.rms_normalised_residual, std::sqrt(2 * s.fit_before->misfit() / m), 1e-12);
+  EXPECT_NEAR(s.metrics_after.rms_normalised_residual, std::sqrt(2 * s.fit_after->misfit() / m), 1e-12);
+  EXPECT_LT(s.metrics_after.rms_normalised_residual, s.metrics_before.rms_normalised_residual);
+  EXPECT_NEAR(s.metrics_after.relative_error_percent(1),
+              100 * std::abs(lp.y(1) - s.fit_after->z(1)) / std::abs(lp.y(1)), 1e-10);
+  // Identity transforms: the prior std in theta is the std in eta.
+  EXPECT_LT((s.theta_prior_std - lp.s0).cwiseAbs().maxCoeff(), 1e-15);
+  EXPECT_LT((s.theta_prior - lp.m0).cwiseAbs().maxCoeff(), 1e-15);
+  ASSERT_TRUE(s.truth_error_percent);
+  for (int j = 0; j < lp.m0.size(); ++j) {
+    EXPECT_NEAR((*s.truth_error_percent)(j),
+                100 * std::abs(s.theta_of_eta_mean(j) - 1.1 * lp.m0(j)) / std::abs(1.1 * lp.m0(j)), 1e-10);
+  }
+}
+
 TEST(UtCalibration, ReportsTransformOfEtaMeanAndSigmaPointThetaMeanSeparately) {
   // z = log(theta / ref): linear in eta for a log transform, so the posterior in eta is Gaussian
   // with known moments; E[theta] = ref exp(mu + s^2 / 2) differs from ref exp(mu).
@@ -164,12 +183,11 @@ TEST(UtCalibration, ReportsTransformOfEtaMeanAndSigmaPointThetaMeanSeparately) {
     z(0) = std::log(t(0) / ref);
     return model::Status::Ok();
   });
-  CalibrationParameter par;
-  par.name = "t0";
-  par.prior_mean = ref;
-  par.prior_spread = s0;  // relative spread = std in eta for a log transform
-  par.transform = Transform{TransformKind::kLog, ref};
-  UtCalibration cal(fm, {par}, observations(Eigen::VectorXd::Constant(1, y),
+  Prior prior;
+  // relative spread = std in eta for a log transform
+  prior.parameters.push_back(PriorParameter::gaussian("t0", "1", ref, s0, SpreadKind::kRelative,
+                                                      Transform{TransformKind::kLog, ref}));
+  UtCalibration cal(fm, prior, observations(Eigen::VectorXd::Constant(1, y),
                                             Eigen::MatrixXd::Constant(1, 1, r * r)),
                     serial_options({SigmaRule::kStar, 2.0}));
   const UtSummary s = cal.run();
@@ -365,15 +383,22 @@ TEST(UtCalibration, ValidateNamesTheInconsistency) {
   const LinearProblem lp;
   const FunctionModel fm = lp.model();
   auto pars = identity_parameters(lp.m0, lp.s0);
-  pars[1].name = "wrong";
+  pars.parameters[1].name = "wrong";
   EXPECT_NE(UtCalibration(fm, pars, observations(lp.y, lp.R), serial_options()).validate().find(
                 "'wrong'"),
             std::string::npos);
+  // A relative spread at a zero prior mean gives no std in eta: the prior refuses to build it,
+  // and a prior with a zero std (built by hand) does not validate.
+  try {
+    (void)PriorParameter::gaussian("t0", "1", 0.0, lp.s0(0), SpreadKind::kRelative, {});
+    ADD_FAILURE() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("non-zero prior mean"), std::string::npos);
+  }
   pars = identity_parameters(lp.m0, lp.s0);
-  pars[0].spread_kind = SpreadKind::kRelative;
-  pars[0].prior_mean = 0.0;
+  pars.parameters[0].std_eta = 0.0;
   EXPECT_NE(UtCalibration(fm, pars, observations(lp.y, lp.R), serial_options()).validate().find(
-                "non-zero prior mean"),
+                "positive finite std"),
             std::string::npos);
   UtOptions opt = serial_options();
   opt.shrink_factor = 1.5;

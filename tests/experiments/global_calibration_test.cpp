@@ -72,17 +72,14 @@ struct Twin {
 
   estimation::UtSummary calibrate() const {
     estimation::SimulatorForwardModel fm(sphere, *observer, names);
-    std::vector<estimation::CalibrationParameter> params;
+    estimation::Prior params;
     const auto& space = sphere.parameters();
     for (const auto& n : names) {
-      estimation::CalibrationParameter c;
-      c.name = n;
-      c.prior_mean = space[space.index_or_throw(n)].nominal;
-      c.prior_spread = 0.25;  // 25 % (log transform: exactly 0.25 in eta)
-      c.spread_kind = estimation::SpreadKind::kRelative;
-      c.transform.kind = estimation::TransformKind::kLog;
-      c.transform.reference = c.prior_mean;
-      params.push_back(c);
+      const model::Parameter& q = space[space.index_or_throw(n)];
+      // 25 % (log transform: exactly 0.25 in eta)
+      params.parameters.push_back(estimation::PriorParameter::gaussian(
+          n, q.unit, q.nominal, 0.25, estimation::SpreadKind::kRelative,
+          {estimation::TransformKind::kLog, q.nominal}, 0.0));
     }
     estimation::UtOptions o;
     o.sigma.rule = estimation::SigmaRule::kSimplex;

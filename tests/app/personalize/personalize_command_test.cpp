@@ -72,6 +72,18 @@ TEST(PersonalizeCommand, AnUnknownFamilyGetsADidYouMean) {
   EXPECT_NE(r.err.find("did you mean"), std::string::npos) << r.err;
 }
 
+TEST(PersonalizeCommand, AFamilyIsNamedByItsTagOrByItsParametersStem) {
+  const auto dir = scratch_dir();
+  for (const std::string estimate :
+       {"contractility: {segments: [1, 7], spread: 20 %}", "sigma0: {segments: all, spread: 20 %}",
+        "activation_time: {segments: [2], spread: 0.01 s, transform: identity}",
+        "Td: {segments: [2], spread: 0.01 s, transform: identity}"}) {
+    const auto cfg = write_file(dir / "family.yaml", config_with(estimate));
+    const CliRun r = cli({"validate", cfg.string()});
+    EXPECT_EQ(r.code, 0) << estimate << ": " << r.err;
+  }
+}
+
 TEST(PersonalizeCommand, AnAbortedFilterExitsOneAndKeepsTheStepsDone) {
   const auto dir = scratch_dir();
   // One Newton iteration per step cannot converge: every member fails in the first prediction.

@@ -26,7 +26,7 @@ inline TwinOutcome run_twin(int beats) {
   TwinOutcome out;
   out.twin = make_regional_twin(model, o);
   out.twin.filter.ensemble.threads = 2;
-  out.summary = run_roukf(model, out.twin.data, out.twin.filter);
+  out.summary = run_roukf(model, out.twin.prior, out.twin.data, out.twin.filter);
   out.errors = per_beat_relative_errors(out.summary, out.twin.truth_sigma0);
   return out;
 }

@@ -1,6 +1,7 @@
 // Tests of the ROUKF (estimation/roukf/roukf.h) against known answers: the Kalman filter on a
 // linear-Gaussian model, the Unscented-Transform update for one analysis, the U reset, prediction-
 // only stretches, missing observations and the failure policies.
+#include "estimation/fit_metrics.h"
 #include "estimation/roukf/roukf.h"
 
 #include "estimation/roukf/steppable_forward_model.h"
@@ -136,9 +137,16 @@ RoukfData make_data(const LinearSimulator& sim, int frames) {
   return data;
 }
 
+// a ~ N(1, 0.5^2), b ~ N(2, 0.3^2) in eta, identity transforms.
+Prior linear_prior() {
+  Prior prior;
+  prior.parameters = {PriorParameter::gaussian("a", "1", 1.0, 0.5, SpreadKind::kEta, {}),
+                      PriorParameter::gaussian("b", "1", 2.0, 0.3, SpreadKind::kEta, {})};
+  return prior;
+}
+
 RoukfOptions linear_options() {
   RoukfOptions o;
-  o.parameters = {{"a", {}, 1.0, 0.5}, {"b", {}, 2.0, 0.3}};
   o.R = Eigen::Vector2d(0.05 * 0.05, 0.08 * 0.08).asDiagonal();
   o.ensemble.backend = Backend::kSerial;
   o.record_factors = true;
@@ -154,11 +162,12 @@ struct KalmanStep {
 std::vector<KalmanStep> kalman(const LinearSimulator& sim, const RoukfData& data,
                                const RoukfOptions& o) {
   VectorXd x(5);
-  const Eigen::Vector2d eta0(o.parameters[0].prior_eta, o.parameters[1].prior_eta);
+  const Prior prior = linear_prior();
+  const Eigen::Vector2d eta0(prior[0].mean_eta, prior[1].mean_eta);
   x << sim.y0 + sim.G * eta0, eta0;
   MatrixXd P = MatrixXd::Zero(5, 5);
-  P(3, 3) = std::pow(o.parameters[0].prior_std_eta, 2);
-  P(4, 4) = std::pow(o.parameters[1].prior_std_eta, 2);
+  P(3, 3) = std::pow(prior[0].std_eta, 2);
+  P(4, 4) = std::pow(prior[1].std_eta, 2);
   if (o.initial_state_per_member) {  // y0 moves with theta: P0 = [G; I] P_eta [G; I]^T
     MatrixXd T(5, 2);
     T << sim.G, MatrixXd::Identity(2, 2);
@@ -202,7 +211,7 @@ TEST(Roukf, EqualsKalmanFilterOnLinearModel) {
   LinearSimulator sim;
   const RoukfData data = make_data(sim, 12);
   const RoukfOptions o = linear_options();
-  const RoukfSummary s = run_roukf(sim, data, o);
+  const RoukfSummary s = run_roukf(sim, linear_prior(), data, o);
   ASSERT_TRUE(s.ok()) << s.message;
   const auto kf = kalman(sim, data, o);
   ASSERT_EQ(s.steps.size(), kf.size());
@@ -223,7 +232,7 @@ TEST(Roukf, EqualsKalmanFilterWithCanonicalAndStarPoints) {
   for (SigmaRule rule : {SigmaRule::kCanonical, SigmaRule::kStar}) {
     RoukfOptions o = linear_options();
     o.sigma_rule = rule;
-    const RoukfSummary s = run_roukf(sim, data, o);
+    const RoukfSummary s = run_roukf(sim, linear_prior(), data, o);
     ASSERT_TRUE(s.ok()) << s.message;
     EXPECT_LE((s.steps.back().x - kf.back().x).cwiseAbs().maxCoeff(), 1e-10) << to_string(rule);
     EXPECT_LE((covariance(s.steps.back()) - kf.back().P).cwiseAbs().maxCoeff(), 1e-10);
@@ -235,11 +244,14 @@ TEST(Roukf, OneAnalysisWithSimplexPointsEqualsTheUnscentedTransformUpdate) {
   sim.nonlinear = true;
   RoukfData data = make_data(sim, 1);
   RoukfOptions o = linear_options();
-  for (auto& q : o.parameters) {  // log transforms: theta = theta_ref exp(eta)
-    q.transform = Transform{TransformKind::kLog, q.prior_eta};
-    q.prior_eta = 0.0;
+  Prior prior = linear_prior();
+  for (auto& q : prior.parameters) {  // log transforms: theta = theta_ref exp(eta)
+    q.transform = Transform{TransformKind::kLog, q.mean_eta};
+    q.lower = 0.0;
+    q.theta_nominal = q.mean_eta;
+    q.mean_eta = 0.0;
   }
-  const RoukfSummary s = run_roukf(sim, data, o);
+  const RoukfSummary s = run_roukf(sim, prior, data, o);
   ASSERT_TRUE(s.ok()) << s.message;
 
   // Direct UT (ESTIMATION.md s.3) on the augmented state from the same prior.
@@ -289,7 +301,7 @@ TEST(Roukf, ForgettingFactorEqualsTheFadingMemoryKalmanFilter) {
   const RoukfData data = make_data(sim, 10);
   RoukfOptions o = linear_options();
   o.forgetting = 0.9;
-  const RoukfSummary s = run_roukf(sim, data, o);
+  const RoukfSummary s = run_roukf(sim, linear_prior(), data, o);
   ASSERT_TRUE(s.ok()) << s.message;
   const auto kf = kalman(sim, data, o);
   for (size_t k = 0; k < kf.size(); ++k) {
@@ -297,7 +309,7 @@ TEST(Roukf, ForgettingFactorEqualsTheFadingMemoryKalmanFilter) {
     EXPECT_LE((covariance(s.steps[k]) - kf[k].P).cwiseAbs().maxCoeff(), 1e-10) << "step " << k;
   }
   // Fading memory keeps the parameter spread above the plain filter's.
-  const RoukfSummary plain = run_roukf(sim, data, linear_options());
+  const RoukfSummary plain = run_roukf(sim, linear_prior(), data, linear_options());
   EXPECT_GT(s.eta_covariance(0, 0), 1.5 * plain.eta_covariance(0, 0));
 }
 
@@ -309,7 +321,7 @@ TEST(Roukf, PerMemberInitialStatesCarryTheInitialStateParameterCorrelation) {
   const RoukfData data = make_data(sim, 6);
   RoukfOptions o = linear_options();
   o.initial_state_per_member = true;
-  const RoukfSummary s = run_roukf(sim, data, o);
+  const RoukfSummary s = run_roukf(sim, linear_prior(), data, o);
   ASSERT_TRUE(s.ok()) << s.message;
   const auto kf = kalman(sim, data, o);
   for (size_t k = 0; k < kf.size(); ++k) {
@@ -322,7 +334,7 @@ TEST(Roukf, UIsResetToIdentityAfterAPredictionWithoutData) {
   LinearSimulator sim;
   RoukfData data = make_data(sim, 4);
   data.values.row(2).setConstant(std::nan(""));
-  const RoukfSummary s = run_roukf(sim, data, linear_options());
+  const RoukfSummary s = run_roukf(sim, linear_prior(), data, linear_options());
   ASSERT_TRUE(s.ok()) << s.message;
   EXPECT_GT((s.steps[1].U - MatrixXd::Identity(2, 2)).norm(), 1e-3);  // after an analysis
   EXPECT_EQ(s.steps[2].observed, 0);
@@ -335,7 +347,7 @@ TEST(Roukf, PredictionOnlyStretchKeepsTheKalmanCovariance) {
   RoukfData data = make_data(sim, 9);
   for (int k = 2; k < 7; ++k) data.values.row(k).setConstant(std::nan(""));
   const RoukfOptions o = linear_options();
-  const RoukfSummary s = run_roukf(sim, data, o);
+  const RoukfSummary s = run_roukf(sim, linear_prior(), data, o);
   ASSERT_TRUE(s.ok()) << s.message;
   const auto kf = kalman(sim, data, o);
   for (int k = 2; k < 9; ++k) {
@@ -357,7 +369,7 @@ TEST(Roukf, MissingChannelsUseOnlyThePresentOnes) {
   data.values(4, 1) = std::nan("");
   RoukfOptions o = linear_options();
   o.R(0, 1) = o.R(1, 0) = 0.001;  // correlated noise: the sub-matrix must be used
-  const RoukfSummary s = run_roukf(sim, data, o);
+  const RoukfSummary s = run_roukf(sim, linear_prior(), data, o);
   ASSERT_TRUE(s.ok()) << s.message;
   const auto kf = kalman(sim, data, o);
   EXPECT_EQ(s.steps[1].observed, 1);
@@ -373,7 +385,7 @@ TEST(Roukf, RepeatedBeatsReuseTheDataShiftedByThePeriod) {
   RoukfOptions o = linear_options();
   o.beats = 2;
   o.period = 1.2;
-  const RoukfSummary s = run_roukf(sim, data, o);
+  const RoukfSummary s = run_roukf(sim, linear_prior(), data, o);
   ASSERT_TRUE(s.ok()) << s.message;
   ASSERT_EQ(s.steps.size(), 6u);
   EXPECT_DOUBLE_EQ(s.steps[4].time, 0.6 + 1.2);
@@ -386,10 +398,10 @@ TEST(Roukf, ResultsDoNotDependOnTheThreadCount) {
   sim.nonlinear = true;
   const RoukfData data = make_data(sim, 6);
   RoukfOptions o = linear_options();
-  const RoukfSummary serial = run_roukf(sim, data, o);
+  const RoukfSummary serial = run_roukf(sim, linear_prior(), data, o);
   o.ensemble.backend = Backend::kThreads;
   o.ensemble.threads = 2;
-  const RoukfSummary threaded = run_roukf(sim, data, o);
+  const RoukfSummary threaded = run_roukf(sim, linear_prior(), data, o);
   ASSERT_TRUE(serial.ok() && threaded.ok());
   EXPECT_EQ((serial.steps.back().x - threaded.steps.back().x).cwiseAbs().maxCoeff(), 0.0);
   EXPECT_EQ((serial.eta_covariance - threaded.eta_covariance).cwiseAbs().maxCoeff(), 0.0);
@@ -408,7 +420,7 @@ TEST(Roukf, FailedMemberIsRetriedWithARefinedTimeStep) {
     levels_asked = std::max(levels_asked, level);
     return std::unique_ptr<model::SteppableSimulator>(std::move(c));
   };
-  const RoukfSummary s = run_roukf(sim, data, o);
+  const RoukfSummary s = run_roukf(sim, linear_prior(), data, o);
   ASSERT_TRUE(s.ok()) << s.message;
   EXPECT_GE(s.retries, 1);
   EXPECT_EQ(levels_asked, 1);
@@ -426,7 +438,7 @@ TEST(Roukf, WithoutRetriesAFailureShrinksTheSpreadAndSkipsTheAnalysis) {
   sim.fail_above = 1.45;  // the full spread reaches a = 1.61, the halved one 1.31
   RoukfOptions o = linear_options();
   o.failure_policy = RoukfFailurePolicy::kSkipWithInflation;
-  const RoukfSummary s = run_roukf(sim, data, o);
+  const RoukfSummary s = run_roukf(sim, linear_prior(), data, o);
   ASSERT_TRUE(s.ok()) << s.message;
   EXPECT_TRUE(s.steps[0].analysis_skipped);
   EXPECT_GE(s.skipped_analyses, 1);
@@ -441,17 +453,47 @@ TEST(Roukf, AbortPolicyReportsTheFailedMembersParameters) {
   sim.fail_above = 1.45;  // the full spread reaches a = 1.61, the halved one 1.31
   RoukfOptions o = linear_options();
   o.failure_policy = RoukfFailurePolicy::kAbort;
-  const RoukfSummary s = run_roukf(sim, data, o);
+  const RoukfSummary s = run_roukf(sim, linear_prior(), data, o);
   EXPECT_EQ(s.termination, RoukfTermination::kMemberFailed);
   EXPECT_NE(s.message.find("a = "), std::string::npos) << s.message;
   EXPECT_NE(s.message.find("too large"), std::string::npos) << s.message;
 }
 
+TEST(Roukf, SummaryCarriesTheDeltaStdAndTheErrorsAgainstATruthAfterEachPass) {
+  LinearSimulator sim;
+  const RoukfData data = make_data(sim, 4);
+  RoukfOptions o = linear_options();
+  o.beats = 2;
+  o.period = 10.0;
+  o.truth = Eigen::Vector2d(1.5, 1.2);
+  const RoukfSummary s = run_roukf(sim, linear_prior(), data, o);
+  ASSERT_TRUE(s.ok()) << s.message;
+  // Identity transforms: theta std = sqrt(diag P_eta).
+  EXPECT_LT((s.theta_std - s.eta_covariance.diagonal().cwiseSqrt()).cwiseAbs().maxCoeff(), 1e-14);
+  EXPECT_LT((s.theta_prior_std - Eigen::Vector2d(0.5, 0.3)).cwiseAbs().maxCoeff(), 1e-15);
+  ASSERT_EQ(s.pass_error_percent.rows(), 2);
+  const Eigen::VectorXd last = relative_errors_percent(s.theta, *o.truth);
+  EXPECT_LT((s.pass_error_percent.row(1).transpose() - last).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_EQ(passes_to_within(s.pass_error_percent, 1e9), 1);
+  EXPECT_EQ(passes_to_within(s.pass_error_percent, -1.0), -1);
+  EXPECT_EQ(s.passes_to_within_10_percent, passes_to_within(s.pass_error_percent, 10.0));
+}
+
+TEST(Roukf, AUniformPriorIsBadInputNotAnException) {
+  LinearSimulator sim;
+  Prior prior = linear_prior();
+  prior.parameters[0] = PriorParameter::uniform("a", "1", 0.0, 2.0, 1.0);
+  const RoukfSummary s = run_roukf(sim, prior, make_data(sim, 2), linear_options());
+  EXPECT_EQ(s.termination, RoukfTermination::kInvalidInput);
+  EXPECT_NE(s.message.find("Gaussian"), std::string::npos) << s.message;
+}
+
 TEST(Roukf, UnknownParameterIsReportedWithASuggestion) {
   LinearSimulator sim;
   RoukfOptions o = linear_options();
-  o.parameters[1].name = "bb";
-  const RoukfSummary s = run_roukf(sim, make_data(sim, 2), o);
+  Prior prior = linear_prior();
+  prior.parameters[1].name = "bb";
+  const RoukfSummary s = run_roukf(sim, prior, make_data(sim, 2), o);
   EXPECT_EQ(s.termination, RoukfTermination::kInvalidInput);
   EXPECT_NE(s.message.find("did you mean 'b'"), std::string::npos) << s.message;
 }
@@ -460,7 +502,7 @@ TEST(Roukf, MismatchedNoiseCovarianceIsRejectedUpFront) {
   LinearSimulator sim;
   RoukfOptions o = linear_options();
   o.R = MatrixXd::Identity(3, 3);
-  const RoukfSummary s = run_roukf(sim, make_data(sim, 2), o);
+  const RoukfSummary s = run_roukf(sim, linear_prior(), make_data(sim, 2), o);
   EXPECT_EQ(s.termination, RoukfTermination::kInvalidInput);
   EXPECT_EQ(s.member_runs, 0);
 }

@@ -1,0 +1,150 @@
+#include "app/io/calibration_h5.h"
+
+#include "app/io/hdf5_writer.h"
+#include "model/units.h"
+
+#include <cmath>
+#include <cstdint>
+#include <sstream>
+
+namespace sigmaheart::app::io {
+
+ObservationDisplay observation_display(const observers::ObservationSet& obs) {
+  ObservationDisplay d;
+  d.factor.resize(obs.size());
+  for (int i = 0; i < obs.size(); ++i) {
+    const auto& si = obs.units[static_cast<size_t>(i)];
+    std::string shown = i < static_cast<int>(obs.display_units.size())
+                            ? obs.display_units[static_cast<size_t>(i)] : std::string{};
+    double f = 1.0;
+    if (!shown.empty() && model::units::compatible(shown, si)) {
+      f = model::units::convert(1.0, si, shown);
+    } else {
+      const auto du = display_unit(si);
+      shown = du.unit;
+      f = du.from_si;
+    }
+    d.units.push_back(shown);
+    d.factor(i) = f;
+  }
+  return d;
+}
+
+void write_calibration_h5(const std::filesystem::path& path, const CalibrationResults& results,
+                          Provenance prov) {
+  const CalibrationProblem& problem = *results.problem;
+  const estimation::UtSummary& summary = *results.summary;
+  const observers::ObservationSet& obs = problem.observations;
+  const ObservationDisplay disp = observation_display(obs);
+  const std::vector<std::string>& names = summary.names;
+  const int m = obs.size();
+  auto shown = [&](const std::optional<estimation::UtFit>& f) {
+    Eigen::VectorXd z = Eigen::VectorXd::Constant(m, std::nan(""));
+    if (f && f->z.size() == m) z = f->z.cwiseProduct(disp.factor);
+    return z;
+  };
+
+  Hdf5Writer h5(path);
+  write_parameters(h5, "/parameters", *results.space, results.estimated_theta);
+  h5.set_attribute("/parameters", "description",
+                   "every simulator parameter; estimated ones at the calibrated value");
+
+  // Observations, in display units.
+  const std::string obs_units = "see /observations/units";
+  h5.write_strings("/observations/names", obs.names);
+  h5.write_strings("/observations/units", disp.units);
+  h5.write_strings("/observations/si_units", obs.units);
+  h5.write_vector("/observations/y", obs.y.cwiseProduct(disp.factor), obs_units);
+  h5.write_vector("/observations/noise_std",
+                  obs.R.diagonal().cwiseSqrt().cwiseProduct(disp.factor), obs_units);
+  if (obs.frame_times.size() > 0) h5.write_vector("/observations/frame_times", obs.frame_times, "s");
+  if (!problem.observation_file.empty()) {
+    h5.set_attribute("/observations", "file", problem.observation_file.string());
+  }
+
+  // Estimate.
+  const std::string per = "per parameter, see /estimate/units";
+  h5.write_strings("/estimate/names", names);
+  h5.write_strings("/estimate/units", problem.prior.units());
+  std::vector<std::string> transforms;
+  for (const auto& c : problem.prior.parameters) transforms.emplace_back(estimation::to_string(c.transform.kind));
+  h5.write_strings("/estimate/transform", transforms);
+  h5.write_vector("/estimate/prior_mean", summary.theta_prior, per);
+  h5.write_vector("/estimate/prior_std", summary.theta_prior_std, per);
+  h5.write_vector("/estimate/mean", summary.theta_of_eta_mean, per);
+  h5.set_attribute("/estimate/mean", "description", "T(eta mean): the point estimate, where the fit runs");
+  h5.write_vector("/estimate/sigma_mean", summary.theta_sigma_mean, per);
+  h5.set_attribute("/estimate/sigma_mean", "description", "sigma-point estimate of E[theta]");
+  h5.write_vector("/estimate/std", summary.theta_std, per);
+  h5.write_vector("/estimate/eta_prior_mean", summary.eta_prior_mean, "1");
+  h5.write_vector("/estimate/eta_prior_std", summary.eta_prior_std, "1");
+  h5.write_vector("/estimate/eta_mean", summary.eta_mean, "1");
+  h5.write_matrix("/estimate/eta_covariance", summary.eta_covariance, "1", names, names);
+
+  // Fit before and after, per observation.
+  h5.write_vector("/fit/before", shown(summary.fit_before), obs_units);
+  h5.write_vector("/fit/after", shown(summary.fit_after), obs_units);
+  h5.write_vector("/fit/relative_error_before", summary.metrics_before.relative_error_percent, "%");
+  h5.write_vector("/fit/relative_error_after", summary.metrics_after.relative_error_percent, "%");
+
+  // Every iteration's ensemble.
+  for (const auto& it : summary.iterations) {
+    const std::string g = "/ensemble/" + std::to_string(it.iteration);
+    h5.write_matrix(g + "/theta", it.theta_members, per, {}, names);
+    Eigen::MatrixXd z = it.Z;
+    for (Eigen::Index r = 0; r < z.rows(); ++r) z.row(r) = z.row(r).cwiseProduct(disp.factor.transpose());
+    h5.write_matrix(g + "/z", z, obs_units, {}, obs.names);
+    std::vector<std::int64_t> codes;
+    std::vector<std::string> messages;
+    for (const auto& s : it.status) {
+      codes.push_back(static_cast<std::int64_t>(s.code));
+      messages.push_back(s.ok() ? std::string("ok") : std::string(model::to_string(s.code)) + ": " + s.message);
+    }
+    h5.write_ints(g + "/status", codes);
+    h5.write_strings(g + "/status_message", messages);
+    h5.write_vector(g + "/eta_center", it.eta_center, "1");
+    h5.write_vector(g + "/eta_mean", it.eta_mean, "1");
+    h5.write_matrix(g + "/eta_covariance", it.P, "1", names, names);
+    h5.set_attribute(g, "attempts", it.attempts);
+    h5.set_attribute(g, "spread_factor", it.spread_factor);
+    h5.set_attribute(g, "step", it.step);
+    h5.set_attribute(g, "nis", it.nis);
+  }
+  std::vector<std::string> actions;
+  for (const auto& a : summary.actions) actions.push_back(a.describe());
+  h5.write_strings("/failures/actions", actions);
+  std::vector<std::string> failed;
+  for (const auto& f : summary.failed) {
+    std::ostringstream s;
+    s << "iteration " << f.iteration << " attempt " << f.attempt << " member " << f.member
+      << " theta [" << f.theta.transpose() << "]: " << model::to_string(f.status.code) << ": "
+      << f.status.message;
+    failed.push_back(s.str());
+  }
+  h5.write_strings("/failures/members", failed);
+
+  // Curves.
+  if (problem.measured) write_trajectory(h5, "/trajectories/observed", *problem.measured);
+  if (results.prior_curves) write_trajectory(h5, "/trajectories/prior", *results.prior_curves);
+  if (results.calibrated_curves) write_trajectory(h5, "/trajectories/calibrated", *results.calibrated_curves);
+
+  h5.create_group("/summary");
+  h5.set_attribute("/summary", "termination", estimation::to_string(summary.termination));
+  h5.set_attribute("/summary", "message", summary.message);
+  h5.set_attribute("/summary", "report", summary.brief_report());
+  h5.set_attribute("/summary", "mode", estimation::to_string(summary.mode));
+  h5.set_attribute("/summary", "sigma_points", estimation::to_string(summary.rule));
+  h5.set_attribute("/summary", "failure_policy", estimation::to_string(results.failure_policy));
+  h5.set_attribute("/summary", "iterations", static_cast<int>(summary.iterations.size()));
+  h5.set_attribute("/summary", "simulations", summary.simulations);
+  h5.set_attribute("/summary", "failures", summary.failures);
+  h5.set_attribute("/summary", "mean_relative_error_before", summary.metrics_before.mean_relative_error_percent);
+  h5.set_attribute("/summary", "mean_relative_error_after", summary.metrics_after.mean_relative_error_percent);
+  h5.set_attribute("/summary", "rms_normalised_residual_before", summary.metrics_before.rms_normalised_residual);
+  h5.set_attribute("/summary", "rms_normalised_residual_after", summary.metrics_after.rms_normalised_residual);
+  prov.end_utc = utc_now();
+  write_provenance(h5, prov);
+  h5.commit();
+}
+
+}  // namespace sigmaheart::app::io

@@ -1,0 +1,47 @@
+// What `calibrate` writes: the HDF5 results file (kind "calibrate", read by
+// scripts/sigmaplot_calibrate.py), the JSON summary and the terminal report, all from the
+// UtSummary (which carries every number shown) and the problem it solved. Observations are shown
+// in the units of their data file when compatible, else in display_unit() (app/io/display.h).
+#pragma once
+
+#include "app/calibration_setup.h"
+#include "app/io/results.h"
+#include "estimation/ut_calibration.h"
+#include "model/simulator.h"
+
+#include <Eigen/Core>
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace sigmaheart::app::io {
+
+// Display unit and factor (display = SI * factor) of each observation.
+struct ObservationDisplay {
+  std::vector<std::string> units;
+  Eigen::VectorXd factor;
+};
+ObservationDisplay observation_display(const observers::ObservationSet& observations);
+
+struct CalibrationResults {
+  const CalibrationProblem* problem = nullptr;
+  const estimation::UtSummary* summary = nullptr;
+  estimation::UtFailurePolicy failure_policy = estimation::UtFailurePolicy::kShrinkAndRetry;
+  const model::ParameterSpace* space = nullptr;  // the simulator's parameters
+  Eigen::VectorXd estimated_theta;               // full parameter vector at the estimate
+  std::optional<model::Trajectory> prior_curves;       // the model at the prior mean
+  std::optional<model::Trajectory> calibrated_curves;  // the model at the estimate
+};
+
+// The results file (written atomically; provenance.end_utc is set here).
+void write_calibration_h5(const std::filesystem::path& path, const CalibrationResults& results,
+                          Provenance provenance);
+// {"kind": "calibrate", "parameters": {...}, "fit": {...}, ...}, written atomically.
+void write_calibration_json(const std::filesystem::path& path, const std::string& name,
+                            const CalibrationResults& results);
+// The brief report, the parameter table and the fit table for the terminal.
+std::string calibration_report(const CalibrationResults& results);
+
+}  // namespace sigmaheart::app::io

@@ -1,0 +1,114 @@
+// The JSON summary and the terminal report of `calibrate` (declared in calibration_h5.h).
+#include "app/io/atomic_file.h"
+#include "app/io/calibration_h5.h"
+#include "app/io/display.h"
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+
+namespace sigmaheart::app::io {
+
+namespace {
+
+Eigen::VectorXd shown_fit(const std::optional<estimation::UtFit>& f, const ObservationDisplay& d) {
+  const auto m = d.factor.size();
+  if (f && f->z.size() == m) return f->z.cwiseProduct(d.factor);
+  return Eigen::VectorXd::Constant(m, std::nan(""));
+}
+
+}  // namespace
+
+void write_calibration_json(const std::filesystem::path& path, const std::string& name,
+                            const CalibrationResults& results) {
+  const estimation::UtSummary& summary = *results.summary;
+  const observers::ObservationSet& obs = results.problem->observations;
+  const ObservationDisplay disp = observation_display(obs);
+  const std::vector<std::string> units = results.problem->prior.units();
+  const Eigen::VectorXd before = shown_fit(summary.fit_before, disp);
+  const Eigen::VectorXd after = shown_fit(summary.fit_after, disp);
+
+  nlohmann::ordered_json j;
+  j["kind"] = "calibrate";
+  j["name"] = name;
+  j["termination"] = estimation::to_string(summary.termination);
+  j["message"] = summary.message;
+  j["mode"] = estimation::to_string(summary.mode);
+  j["iterations"] = summary.iterations.size();
+  j["simulations"] = summary.simulations;
+  j["failures"] = summary.failures;
+  for (size_t k = 0; k < summary.names.size(); ++k) {
+    const auto i = static_cast<Eigen::Index>(k);
+    j["parameters"][summary.names[k]] = {{"value", summary.theta_of_eta_mean(i)},
+                                         {"std", summary.theta_std(i)},
+                                         {"prior", summary.theta_prior(i)},
+                                         {"prior_std", summary.theta_prior_std(i)},
+                                         {"unit", units[k]}};
+    if (summary.truth_error_percent) {
+      j["parameters"][summary.names[k]]["error_percent"] = (*summary.truth_error_percent)(i);
+    }
+  }
+  for (int i = 0; i < obs.size(); ++i) {
+    const auto k = static_cast<size_t>(i);
+    j["fit"][obs.names[k]] = {
+        {"observed", obs.y(i) * disp.factor(i)},
+        {"noise_std", std::sqrt(obs.R(i, i)) * disp.factor(i)},
+        {"prior", before(i)},
+        {"calibrated", after(i)},
+        {"relative_error_prior_percent", summary.metrics_before.relative_error_percent(i)},
+        {"relative_error_percent", summary.metrics_after.relative_error_percent(i)},
+        {"unit", disp.units[k]}};
+  }
+  j["mean_relative_error_prior_percent"] = summary.metrics_before.mean_relative_error_percent;
+  j["mean_relative_error_percent"] = summary.metrics_after.mean_relative_error_percent;
+  j["rms_normalised_residual_prior"] = summary.metrics_before.rms_normalised_residual;
+  j["rms_normalised_residual"] = summary.metrics_after.rms_normalised_residual;
+  write_text_file(path, [&](std::ostream& f) { f << j.dump(2) << "\n"; });
+}
+
+std::string calibration_report(const CalibrationResults& results) {
+  const estimation::UtSummary& summary = *results.summary;
+  const observers::ObservationSet& obs = results.problem->observations;
+  const ObservationDisplay disp = observation_display(obs);
+  const std::vector<std::string> units = results.problem->prior.units();
+  const Eigen::VectorXd before = shown_fit(summary.fit_before, disp);
+  const Eigen::VectorXd after = shown_fit(summary.fit_after, disp);
+  const auto& err_after = summary.metrics_after.relative_error_percent;
+
+  std::ostringstream t;
+  t << summary.brief_report() << "\n\n";
+  t << std::left << std::setw(14) << "parameter" << std::right << std::setw(12) << "prior"
+    << std::setw(14) << "estimate" << std::setw(12) << "+- std" << "  unit\n";
+  for (size_t k = 0; k < summary.names.size(); ++k) {
+    const auto j = static_cast<Eigen::Index>(k);
+    t << std::left << std::setw(14) << summary.names[k] << std::right << std::setw(12)
+      << format_number(summary.theta_prior(j)) << std::setw(14)
+      << format_number(summary.theta_of_eta_mean(j)) << std::setw(12)
+      << format_number(summary.theta_std(j), 2) << "  " << units[k] << "\n";
+  }
+  t << "\n" << std::left << std::setw(14) << "observation" << std::right << std::setw(11) << "observed"
+    << std::setw(11) << "prior" << std::setw(11) << "calibrated" << std::setw(9) << "error" << "  unit\n";
+  const int m = obs.size();
+  const int shown = std::min(m, 24);
+  for (int i = 0; i < shown; ++i) {
+    const auto k = static_cast<size_t>(i);
+    t << std::left << std::setw(14) << obs.names[k] << std::right << std::setw(11)
+      << format_number(obs.y(i) * disp.factor(i)) << std::setw(11) << format_number(before(i))
+      << std::setw(11) << format_number(after(i)) << std::setw(8) << format_number(err_after(i), 2)
+      << "%  " << disp.units[k] << "\n";
+  }
+  if (m > shown) t << "... (" << m - shown << " more in the results file)\n";
+  t << "mean relative error: " << format_number(summary.metrics_before.mean_relative_error_percent, 3)
+    << " % (prior) -> " << format_number(summary.metrics_after.mean_relative_error_percent, 3)
+    << " % (calibrated)\n"
+    << "RMS residual in noise standard deviations: "
+    << format_number(summary.metrics_before.rms_normalised_residual, 3) << " (prior) -> "
+    << format_number(summary.metrics_after.rms_normalised_residual, 3)
+    << " (calibrated); 1 = at the noise level\n";
+  return t.str();
+}
+
+}  // namespace sigmaheart::app::io

@@ -1,0 +1,156 @@
+#include "app/io/roukf_h5.h"
+
+#include "app/io/hdf5_writer.h"
+
+#include <cmath>
+#include <cstdint>
+
+namespace sigmaheart::app::io {
+
+Eigen::VectorXd RoukfResults::value() const {
+  return summary->has_estimate() ? summary->theta : summary->theta_prior;
+}
+
+Eigen::VectorXd RoukfResults::std() const {
+  return summary->has_estimate() ? summary->theta_std : summary->theta_prior_std;
+}
+
+void write_roukf_h5(const std::filesystem::path& path, const RoukfResults& results,
+                    Provenance prov) {
+  const PersonalizeProblem& problem = *results.problem;
+  const estimation::RoukfSummary& summary = *results.summary;
+  const std::vector<std::string>& names = summary.parameter_names;
+  const std::vector<std::string>& channels = problem.data.channels;
+  const int p = static_cast<int>(names.size());
+  const int m = static_cast<int>(channels.size());
+  const int steps = static_cast<int>(summary.steps.size());
+  const Eigen::VectorXd final_theta = results.value();
+
+  Hdf5Writer h5(path);
+  Eigen::VectorXd full = problem.filter.base_theta;
+  for (int j = 0; j < p; ++j) full(*results.space->index(names[static_cast<size_t>(j)])) = final_theta(j);
+  write_parameters(h5, "/parameters", *results.space, full);
+  h5.set_attribute("/parameters", "description", "every simulator parameter; estimated ones at the final estimate");
+
+  const std::string per = "per parameter, see /estimate/units";
+  h5.write_strings("/estimate/names", names);
+  h5.write_strings("/estimate/units", problem.prior.units());
+  h5.write_strings("/estimate/family", problem.families);
+  std::vector<std::int64_t> segs(problem.segments.begin(), problem.segments.end());
+  h5.write_ints("/estimate/segment", segs);
+  h5.set_attribute("/estimate/segment", "units", "1-based AHA segment; 0 = global parameter");
+  std::vector<std::string> transforms;
+  for (const auto& q : problem.prior.parameters) transforms.emplace_back(estimation::to_string(q.transform.kind));
+  h5.write_strings("/estimate/transform", transforms);
+  h5.write_vector("/estimate/prior", summary.theta_prior, per);
+  h5.write_vector("/estimate/prior_std", summary.theta_prior_std, per);
+  h5.write_vector("/estimate/value", final_theta, per);
+  h5.set_attribute("/estimate/value", "description", "T(eta mean) after the last step");
+  h5.write_vector("/estimate/std", results.std(), per);
+  h5.set_attribute("/estimate/std", "description", "|dtheta/deta| sqrt(P_eta) (delta method)");
+  if (summary.has_estimate()) {
+    h5.write_vector("/estimate/lower", summary.theta_lower, per);
+    h5.write_vector("/estimate/upper", summary.theta_upper, per);
+    h5.write_vector("/estimate/eta", summary.eta, "1");
+    h5.write_matrix("/estimate/eta_covariance", summary.eta_covariance, "1", names, names);
+  }
+
+  // Observations in display units (mL).
+  const std::string obs_units = "see /observations/units";
+  Eigen::MatrixXd y = problem.data.values;
+  for (int j = 0; j < m; ++j) y.col(j) *= problem.display_factor(j);
+  h5.write_strings("/observations/names", channels);
+  h5.write_strings("/observations/units", problem.display_units);
+  h5.write_vector("/observations/time", problem.file_times, "s");
+  h5.set_attribute("/observations/time", "description", "frame times as in the file (beat-local)");
+  h5.write_matrix("/observations/values", y, obs_units, {}, channels);
+  h5.write_vector("/observations/noise_std", problem.noise_si.cwiseProduct(problem.display_factor), obs_units);
+  h5.write_vector("/observations/filter_noise_std",
+                  problem.r_inflation * problem.noise_si.cwiseProduct(problem.display_factor), obs_units);
+  h5.set_attribute("/observations", "file", problem.observation_file.string());
+  h5.set_attribute("/observations", "start_beats", problem.start_beats);
+
+  // Every filter step.
+  Eigen::VectorXd time(steps), nis(steps), loglik(steps);
+  std::vector<std::int64_t> beat(steps), frame(steps), observed(steps), skipped(steps);
+  Eigen::MatrixXd th = Eigen::MatrixXd::Constant(steps, p, std::nan("")), lo = th, hi = th, eta = th, eta_std = th;
+  Eigen::MatrixXd innov = Eigen::MatrixXd::Constant(steps, m, std::nan("")), fc = innov, fit = innov;
+  std::vector<std::string> actions;
+  for (int k = 0; k < steps; ++k) {
+    const auto& s = summary.steps[static_cast<size_t>(k)];
+    const auto kk = static_cast<size_t>(k);
+    time(k) = s.time;
+    nis(k) = s.nis;
+    loglik(k) = s.log_likelihood;
+    beat[kk] = s.beat;
+    frame[kk] = s.frame;
+    observed[kk] = s.observed;
+    skipped[kk] = s.analysis_skipped ? 1 : 0;
+    if (s.theta.size() == p) {
+      th.row(k) = s.theta.transpose();
+      lo.row(k) = s.theta_lower.transpose();
+      hi.row(k) = s.theta_upper.transpose();
+      eta.row(k) = s.eta.transpose();
+      eta_std.row(k) = s.eta_std.transpose();
+    }
+    if (s.innovation.size() == m) {
+      innov.row(k) = s.innovation.cwiseProduct(problem.display_factor).transpose();
+      fc.row(k) = s.forecast.cwiseProduct(problem.display_factor).transpose();
+      fit.row(k) = s.fitted.cwiseProduct(problem.display_factor).transpose();
+    }
+    for (const auto& a : s.actions) {
+      actions.push_back("step " + std::to_string(k) + (a.member >= 0 ? " member " + std::to_string(a.member) : "") +
+                        ": " + a.what + (a.status.ok() ? "" : " (" + a.status.message + ")"));
+    }
+  }
+  h5.write_vector("/steps/time", time, "s");
+  h5.set_attribute("/steps/time", "description", "model time of the frame (start_beats + pass) x period + frame time");
+  h5.write_ints("/steps/beat", beat);
+  h5.write_ints("/steps/frame", frame);
+  h5.write_ints("/steps/observed", observed);
+  h5.write_ints("/steps/analysis_skipped", skipped);
+  for (const char* n : {"/steps/beat", "/steps/frame", "/steps/observed", "/steps/analysis_skipped"}) {
+    h5.set_attribute(n, "units", "1");
+  }
+  h5.write_matrix("/steps/theta", th, per, {}, names);
+  h5.write_matrix("/steps/theta_lower", lo, per, {}, names);
+  h5.set_attribute("/steps/theta_lower", "description", "T(eta - 2 std)");
+  h5.write_matrix("/steps/theta_upper", hi, per, {}, names);
+  h5.set_attribute("/steps/theta_upper", "description", "T(eta + 2 std)");
+  h5.write_matrix("/steps/eta", eta, "1", {}, names);
+  h5.write_matrix("/steps/eta_std", eta_std, "1", {}, names);
+  h5.write_matrix("/steps/innovation", innov, obs_units, {}, channels);
+  h5.write_matrix("/steps/forecast", fc, obs_units, {}, channels);
+  h5.write_matrix("/steps/fitted", fit, obs_units, {}, channels);
+  h5.set_attribute("/steps/fitted", "description", "linearised posterior fit of the observations");
+  h5.write_vector("/steps/nis", nis, "1");
+  h5.write_vector("/steps/log_likelihood", loglik, "1");
+  h5.write_strings("/failures/actions", actions);
+
+  if (problem.filter.truth) {
+    h5.write_vector("/truth/values", *problem.filter.truth, per);
+    h5.write_matrix("/truth/pass_error", summary.pass_error_percent, "%", {}, names);
+    h5.set_attribute("/truth/pass_error", "description", "|estimate - truth| / truth after each pass");
+    h5.set_attribute("/truth", "passes_to_within_10_percent", summary.passes_to_within_10_percent);
+  }
+
+  h5.create_group("/summary");
+  h5.set_attribute("/summary", "termination", estimation::to_string(summary.termination));
+  h5.set_attribute("/summary", "message", summary.message);
+  h5.set_attribute("/summary", "report", summary.brief_report());
+  h5.set_attribute("/summary", "members", summary.members);
+  h5.set_attribute("/summary", "member_runs", summary.member_runs);
+  h5.set_attribute("/summary", "retries", summary.retries);
+  h5.set_attribute("/summary", "skipped_analyses", summary.skipped_analyses);
+  h5.set_attribute("/summary", "wall_seconds", summary.wall_seconds);
+  h5.set_attribute("/summary", "passes", problem.filter.beats);
+  h5.set_attribute("/summary", "forgetting", problem.filter.forgetting);
+  h5.set_attribute("/summary", "r_inflation", problem.r_inflation);
+  h5.set_attribute("/summary", "spin_up", problem.spin_up);
+  h5.set_attribute("/summary", "failure_policy", estimation::to_string(problem.filter.failure_policy));
+  prov.end_utc = utc_now();
+  write_provenance(h5, prov);
+  h5.commit();
+}
+
+}  // namespace sigmaheart::app::io

@@ -1,0 +1,123 @@
+// The JSON summary and the terminal table of `personalize` (declared in roukf_h5.h).
+#include "app/io/atomic_file.h"
+#include "app/io/display.h"
+#include "app/io/roukf_h5.h"
+#include "model/lumped/regional.h"
+
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+
+namespace sigmaheart::app::io {
+
+namespace {
+
+// "[lo, hi]", through a stream: GCC 12 warns falsely (-Wrestrict) on a chain of + here.
+std::string interval(const std::string& lo, const std::string& hi) {
+  std::ostringstream s;
+  s << "[" << lo << ", " << hi << "]";
+  return s.str();
+}
+
+}  // namespace
+
+void write_roukf_json(const std::filesystem::path& path, const std::string& name,
+                      const RoukfResults& results) {
+  const PersonalizeProblem& problem = *results.problem;
+  const estimation::RoukfSummary& summary = *results.summary;
+  const Eigen::VectorXd value = results.value(), std = results.std();
+  const std::vector<std::string> units = problem.prior.units();
+  const Eigen::MatrixXd& pass_error = summary.pass_error_percent;
+
+  nlohmann::ordered_json j;
+  j["kind"] = "personalize";
+  j["name"] = name;
+  j["termination"] = estimation::to_string(summary.termination);
+  j["message"] = summary.message;
+  j["steps"] = summary.steps.size();
+  j["passes"] = problem.filter.beats;
+  j["members"] = summary.members;
+  j["member_runs"] = summary.member_runs;
+  j["retries"] = summary.retries;
+  j["skipped_analyses"] = summary.skipped_analyses;
+  j["threads"] = results.threads;
+  j["wall_seconds"] = summary.wall_seconds;
+  for (size_t k = 0; k < summary.parameter_names.size(); ++k) {
+    const auto i = static_cast<Eigen::Index>(k);
+    nlohmann::ordered_json e = {{"value", value(i)},
+                                {"std", std(i)},
+                                {"unit", units[k]},
+                                {"segment", problem.segments[k]},
+                                {"prior", summary.theta_prior(i)},
+                                {"prior_std", summary.theta_prior_std(i)}};
+    if (summary.has_estimate()) {
+      e["lower_2sigma"] = summary.theta_lower(i);
+      e["upper_2sigma"] = summary.theta_upper(i);
+    }
+    if (problem.filter.truth) {
+      e["truth"] = (*problem.filter.truth)(i);
+      e["error_percent"] = pass_error(pass_error.rows() - 1, i);
+    }
+    j["parameters"][summary.parameter_names[k]] = e;
+  }
+  if (problem.filter.truth) {
+    for (Eigen::Index b = 0; b < pass_error.rows(); ++b) {
+      j["max_error_percent_per_pass"].push_back(pass_error.row(b).maxCoeff());
+    }
+    const int passes = summary.passes_to_within_10_percent;
+    j["passes_to_within_10_percent"] = passes > 0 ? nlohmann::ordered_json(passes) : nullptr;
+  }
+  write_text_file(path, [&](std::ostream& f) { f << j.dump(2) << "\n"; });
+}
+
+std::string roukf_report(const RoukfResults& results) {
+  const PersonalizeProblem& problem = *results.problem;
+  const estimation::RoukfSummary& summary = *results.summary;
+  const Eigen::VectorXd value = results.value();
+  const Eigen::MatrixXd& pass_error = summary.pass_error_percent;
+  const auto& truth = problem.filter.truth;
+  const int p = static_cast<int>(summary.parameter_names.size());
+  // Pa is shown as kPa in this table (contractilities read better so).
+  auto shown = [&](int j, double v) { return problem.prior[j].unit == "Pa" ? v / 1e3 : v; };
+  auto shown_unit = [&](int j) { return problem.prior[j].unit == "Pa" ? std::string("kPa") : problem.prior[j].unit; };
+  const bool aha = problem.segments.size() == static_cast<size_t>(p) && p > 0;
+
+  std::ostringstream t;
+  t << summary.brief_report() << "\n\n"
+    << std::left << std::setw(12) << "parameter" << std::setw(21) << "segment" << std::right
+    << std::setw(9) << "prior" << std::setw(10) << "estimate" << std::setw(20) << "+-2 sigma";
+  if (truth) t << std::setw(9) << "truth" << std::setw(8) << "error";
+  t << "  unit\n";
+  for (int j = 0; j < p; ++j) {
+    const int seg = problem.segments[static_cast<size_t>(j)];
+    const std::string where = seg == 0 ? "(global)"
+                              : seg <= 17 && aha ? model::lumped::aha17_segment_names()[static_cast<size_t>(seg - 1)]
+                                                 : "patch " + std::to_string(seg);
+    const double lo = summary.has_estimate() ? summary.theta_lower(j) : std::nan("");
+    const double hi = summary.has_estimate() ? summary.theta_upper(j) : std::nan("");
+    t << std::left << std::setw(12) << summary.parameter_names[static_cast<size_t>(j)] << std::setw(21)
+      << where << std::right << std::setw(9) << format_number(shown(j, summary.theta_prior(j)))
+      << std::setw(10) << format_number(shown(j, value(j))) << std::setw(20)
+      << interval(format_number(shown(j, lo), 3), format_number(shown(j, hi), 3));
+    if (truth) {
+      t << std::setw(9) << format_number(shown(j, (*truth)(j))) << std::setw(7)
+        << format_number(pass_error(pass_error.rows() - 1, j), 2) << "%";
+    }
+    t << "  " << shown_unit(j) << "\n";
+  }
+  if (truth) {
+    t << "\nmax | mean error over the parameters after each pass:";
+    for (Eigen::Index b = 0; b < pass_error.rows(); ++b) {
+      t << "  " << b + 1 << ": " << format_number(pass_error.row(b).maxCoeff(), 3) << " | "
+        << format_number(pass_error.row(b).mean(), 3) << " %";
+    }
+    const int passes = summary.passes_to_within_10_percent;
+    t << "\npasses until every parameter is within 10 % of the truth: "
+      << (passes > 0 ? std::to_string(passes) : std::string("not reached")) << "\n";
+  }
+  return t.str();
+}
+
+}  // namespace sigmaheart::app::io

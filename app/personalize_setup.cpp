@@ -1,0 +1,283 @@
+#include "app/personalize_setup.h"
+
+#include "app/calibration_setup.h"
+#include "app/errors.h"
+#include "app/io/display.h"
+#include "app/io/observation_file.h"
+#include "model/units.h"
+
+#include <cmath>
+#include <set>
+
+namespace sigmaheart::app {
+
+namespace {
+
+// Noise std [SI] of one channel: "0.05 mL", "2 %" (of the column mean |y|), or a bare number (SI).
+double parse_noise_value(const ConfigNode& node, const std::string& si_unit, double column_mean) {
+  const auto [value, unit] = number_and_unit(node);
+  if (!(value > 0)) node.fail("expected a positive noise standard deviation");
+  if (unit == "%") return value / 100.0 * std::abs(column_mean);
+  if (unit.empty()) return value;
+  try {
+    return model::units::convert(value, unit, si_unit);
+  } catch (const std::invalid_argument& e) {
+    node.fail(std::string("noise: ") + e.what() + " (channel unit: " + si_unit + ")");
+  }
+}
+
+// Segments of a per-segment family: `all` or a list of 1-based numbers among `available`.
+std::vector<int> parse_segments(const ConfigNode& node, const std::vector<int>& available) {
+  const int patches = available.empty() ? 0 : available.back();
+  if (node.is_scalar()) {
+    if (node.as<std::string>() != "all") node.fail("expected 'all' or a list of segment numbers");
+    return available;
+  }
+  if (!node.is_sequence() || node.size() == 0) node.fail("expected 'all' or a list of segment numbers");
+  std::vector<int> out;
+  for (size_t i = 0; i < node.size(); ++i) {
+    const int s = node[i].as<int>();
+    if (s < 1 || s > patches) {
+      node[i].fail("segment " + std::to_string(s) + " outside 1.." + std::to_string(patches));
+    }
+    for (int t : out) {
+      if (t == s) node[i].fail("segment " + std::to_string(s) + " listed twice");
+    }
+    out.push_back(s);
+  }
+  return out;
+}
+
+// The regional parameters (in segment order) of the family a config key names: the key is the
+// family tag itself or the common stem "<key>_" of the family's parameter names.
+std::vector<int> regional_family(const model::ParameterSpace& space, const std::string& key) {
+  std::set<std::string> families;
+  for (const auto& p : space.all()) {
+    if (p.regional()) families.insert(p.family);
+  }
+  for (const auto& f : families) {
+    const std::vector<int> members = space.regional(f);
+    bool stem = true;
+    for (int i : members) stem = stem && space[i].name.rfind(key + "_", 0) == 0;
+    if (f == key || stem) return members;
+  }
+  return {};
+}
+
+// Names a config may use for the estimated parameters (for did-you-mean).
+std::vector<std::string> estimable_names(const model::ParameterSpace& space) {
+  std::vector<std::string> out;
+  std::set<std::string> families;
+  for (const auto& p : space.all()) {
+    if (!p.regional()) {
+      out.push_back(p.name);
+    } else if (families.insert(p.family).second) {
+      out.push_back(p.family);
+      const std::string& n = p.name;  // its stem: the name up to the last '_'
+      if (const auto cut = n.rfind('_'); cut != std::string::npos) out.push_back(n.substr(0, cut));
+    }
+  }
+  return out;
+}
+
+void parse_observations(const Config& config, const ConfigNode& obs, PersonalizeProblem& out) {
+  obs.check_keys({"file", "channels", "noise", "start_beats"});
+  const auto sim = config.simulator.make();
+  const auto sim_channels = sim->channels();
+  const ConfigNode file_node = obs.require_child("file");
+  std::filesystem::path path = file_node.as<std::string>();
+  if (path.is_relative()) path = std::filesystem::path(config.file.file()).parent_path() / path;
+  if (!std::filesystem::exists(path)) {
+    file_node.fail("observation file '" + path.string() +
+                   "' does not exist (paths are relative to the config file)");
+  }
+  const io::ObservationCurves curves = io::read_observation_csv(path);
+  out.observation_file = path;
+  const model::Trajectory& tr = curves.trajectory;
+  std::vector<int> columns;
+  if (!obs.has("channels") || (obs["channels"].is_scalar() && obs["channels"].as<std::string>() == "all")) {
+    for (size_t c = 0; c < tr.channels.size(); ++c) columns.push_back(static_cast<int>(c));
+  } else {
+    const auto names = obs["channels"].as<std::vector<std::string>>();
+    if (names.empty()) obs["channels"].fail("expected 'all' or a list of column names");
+    for (size_t i = 0; i < names.size(); ++i) {
+      const auto found = tr.channel_index(names[i]);
+      if (!found) obs["channels"][i].fail("the file has no column '" + names[i] + "'");
+      columns.push_back(*found);
+    }
+  }
+  std::vector<std::string> sim_names;
+  for (const auto& c : sim_channels) sim_names.push_back(c.name);
+  const int m = static_cast<int>(columns.size());
+  out.data.values.resize(tr.samples(), m);
+  out.display_factor.resize(m);
+  out.noise_si.resize(m);
+  const ConfigNode noise = obs.require_child("noise");
+  if (noise.is_map()) {
+    for (const auto& key : noise.keys()) {
+      bool known = key == "default";
+      for (int c : columns) known = known || tr.channels[static_cast<size_t>(c)].name == key;
+      if (!known) noise[key].fail("'" + key + "' is not an assimilated channel (nor 'default')");
+    }
+  }
+  for (int j = 0; j < m; ++j) {
+    const auto col = static_cast<size_t>(columns[static_cast<size_t>(j)]);
+    const model::Channel& ch = tr.channels[col];
+    bool in_model = false;
+    for (const auto& s : sim_channels) in_model = in_model || s.name == ch.name;
+    if (!in_model) {
+      const auto guess = model::closest_match(ch.name, sim_names);
+      file_node.fail("column '" + ch.name + "' is not a channel of model " + config.simulator.model +
+                     (guess.empty() ? "" : " (did you mean '" + guess + "'?)"));
+    }
+    out.data.channels.push_back(ch.name);
+    out.data.values.col(j) = tr.values.col(static_cast<Eigen::Index>(col));
+    const std::string shown = curves.display_units[col];
+    out.display_units.push_back(shown.empty() ? io::display_unit(ch.unit).unit : shown);
+    out.display_factor(j) = model::units::convert(1.0, ch.unit, out.display_units.back());
+    ConfigNode nj = noise;
+    if (noise.is_map()) {
+      nj = noise.has(ch.name) ? noise[ch.name] : noise["default"];
+      if (!nj.defined()) noise.fail("no noise for '" + ch.name + "' (give it or 'default:')");
+    }
+    out.noise_si(j) = parse_noise_value(nj, ch.unit, out.data.values.col(j).mean());
+  }
+  out.start_beats = obs.optional<int>("start_beats", 0);
+  if (out.start_beats < 0) obs["start_beats"].fail("expected an integer >= 0");
+  out.file_times = tr.times;
+  out.data.times = tr.times.array() + out.start_beats * out.period;
+  if (!(tr.times(0) >= 0.0)) file_node.fail("frame times must start at or after 0");
+}
+
+void parse_estimate(const Config& config, const ConfigNode& est, PersonalizeProblem& out) {
+  const model::ParameterSpace& space = config.simulator.parameters;
+  if (!est.is_map() || est.size() == 0) est.fail("expected a map of parameter -> {prior, spread, ...}");
+  for (const auto& key : est.keys()) {
+    const ConfigNode node = est[key];
+    node.check_keys({"segments", "prior", "spread", "transform", "bounds"});
+    if (node.has("segments")) {
+      const std::vector<int> members = regional_family(space, key);
+      if (members.empty()) {
+        throw InputError(est.key_location(key), "'" + key + "' is not a per-segment parameter family of " +
+                                                    config.simulator.model + " (e.g. sigma0, Td, stiff, scar)");
+      }
+      std::vector<int> available;
+      for (int i : members) available.push_back(space[i].segment);
+      for (int s : parse_segments(node["segments"], available)) {
+        const int idx = *space.find(space[members.front()].family, s);
+        out.prior.parameters.push_back(parse_estimated_parameter(space[idx], node));
+        out.segments.push_back(s);
+        out.families.push_back(key);
+      }
+    } else {
+      const auto idx = space.index(key);
+      if (!idx) {
+        const auto guess = model::closest_match(key, estimable_names(space));
+        throw InputError(est.key_location(key),
+                         "unknown parameter '" + key + "' for model " + config.simulator.model +
+                             (guess.empty() ? "" : " (did you mean '" + guess + "'?)") +
+                             "; per-segment families take 'segments:'");
+      }
+      out.prior.parameters.push_back(parse_estimated_parameter(space[*idx], node));
+      out.segments.push_back(0);
+      out.families.push_back(key);
+    }
+  }
+  for (size_t a = 0; a < out.prior.parameters.size(); ++a) {
+    for (size_t b = 0; b < a; ++b) {
+      if (out.prior.parameters[a].name == out.prior.parameters[b].name) {
+        est.fail("parameter '" + out.prior.parameters[a].name + "' is estimated twice");
+      }
+    }
+  }
+}
+
+void parse_filter(const ConfigNode& f, PersonalizeProblem& out) {
+  f.check_keys({"beats", "forgetting", "r_inflation", "sigma_points", "kappa", "spin_up",
+                "failure_policy", "max_retries", "shrink", "inflation", "threads"});
+  estimation::RoukfOptions& o = out.filter;
+  o.beats = f.optional<int>("beats", 1);
+  if (o.beats < 1) f["beats"].fail("expected an integer >= 1");
+  o.period = out.period;
+  o.forgetting = f.optional<double>("forgetting", o.forgetting);
+  if (!(o.forgetting > 0 && o.forgetting <= 1)) f["forgetting"].fail("expected a number in (0, 1]");
+  out.r_inflation = f.optional<double>("r_inflation", 1.0);
+  if (!(out.r_inflation > 0)) f["r_inflation"].fail("expected a positive factor");
+  if (f.has("sigma_points")) {
+    o.sigma_rule = *estimation::parse_sigma_rule(f["sigma_points"].as_choice({"simplex", "canonical", "star"}));
+  }
+  o.star_kappa = f.optional<double>("kappa", o.star_kappa);
+  out.spin_up = f.has("spin_up") ? f["spin_up"].as_choice({"per-member", "common"}) : "per-member";
+  o.initial_state_per_member = out.spin_up == "per-member";
+  if (f.has("failure_policy")) {
+    o.failure_policy = *estimation::parse_roukf_failure_policy(
+        f["failure_policy"].as_choice({"retry-then-skip", "skip", "abort"}));
+  }
+  o.max_retries = f.optional<int>("max_retries", o.max_retries);
+  o.shrink = f.optional<double>("shrink", o.shrink);
+  o.inflation = f.optional<double>("inflation", o.inflation);
+  o.ensemble.threads = f.optional<int>("threads", 0);
+  if (o.ensemble.threads < 0) f["threads"].fail("expected an integer >= 0 (0: all cores)");
+  o.R = (out.r_inflation * out.noise_si).array().square().matrix().asDiagonal();
+  o.refine = estimation::refine_by_time_step;
+  if (const std::string e = o.validate(); !e.empty()) f.fail(e);
+}
+
+// truth: per family a list (one value per segment of the family) or one value; per global
+// parameter one value.
+void parse_truth(const model::ParameterSpace& space, const ConfigNode& truth, PersonalizeProblem& out) {
+  if (!truth.is_map()) truth.fail("expected a map of parameter (or family) -> value(s)");
+  const auto p = static_cast<Eigen::Index>(out.prior.size());
+  Eigen::VectorXd t = Eigen::VectorXd::Constant(p, std::nan(""));
+  for (const auto& key : truth.keys()) {
+    const ConfigNode v = truth[key];
+    bool used = false;
+    for (Eigen::Index j = 0; j < p; ++j) {
+      const auto k = static_cast<size_t>(j);
+      const auto& q = out.prior.parameters[k];
+      const bool in_family = out.families[k] == key && out.segments[k] > 0;
+      if (v.is_sequence()) {
+        if (!in_family) continue;
+        const auto segments = regional_family(space, key).size();
+        if (v.size() != segments) v.fail("expected " + std::to_string(segments) + " values, one per segment");
+        t(j) = v[static_cast<size_t>(out.segments[k] - 1)].as_quantity(q.unit);
+        used = true;
+      } else if (q.name == key || in_family) {
+        t(j) = v.as_quantity(q.unit);
+        used = true;
+      }
+    }
+    if (!used) throw InputError(truth.key_location(key), "'" + key + "' is not estimated");
+  }
+  if (!t.allFinite()) truth.fail("give the truth of every estimated parameter (or none)");
+  out.filter.truth = t;
+}
+
+}  // namespace
+
+PersonalizeProblem parse_personalize(const Config& config) {
+  const ConfigNode root = config.file.root();
+  const ConfigNode sec = root.require_child("personalize");
+  sec.check_keys({"observations", "estimate", "filter", "truth"});
+  const model::ParameterSpace& space = config.simulator.parameters;
+  PersonalizeProblem out;
+  const auto period_index = space.find("period");
+  if (!period_index) root["simulator"].fail("personalize needs a model with a parameter tagged 'period'");
+  out.period = space.nominal()(*period_index);
+
+  parse_observations(config, sec.require_child("observations"), out);
+  parse_estimate(config, sec.require_child("estimate"), out);
+  parse_filter(sec["filter"], out);
+  out.filter.base_theta = space.nominal();
+  const ConfigNode file_node = sec["observations"]["file"];
+  if (const std::string e = out.data.validate(); !e.empty()) file_node.fail(e);
+  const auto& times = out.file_times;
+  if (out.filter.beats > 1 && !(times(times.size() - 1) < times(0) + out.period)) {
+    file_node.fail("the frames span more than one heart period (" + std::to_string(out.period) +
+                   " s); repeated passes need one beat");
+  }
+  if (const ConfigNode truth = sec["truth"]; truth.defined()) parse_truth(space, truth, out);
+  return out;
+}
+
+}  // namespace sigmaheart::app

@@ -1,0 +1,66 @@
+// The `personalize:` section of a config, parsed and validated in one place: regional volume
+// curves and their noise, the estimated parameters (per-segment families found by their tags,
+// model::Parameter::family/segment, and global parameters) with their Prior, the ROUKF options and
+// an optional truth (twin experiments).
+//
+//   personalize:
+//     observations:
+//       file: data/regional-lad-infarct.csv   # time [ms], V_seg01 [mL], ..., V_seg17 [mL]
+//       channels: all            # or [V_seg01, V_seg07]: columns of the file to assimilate
+//       noise: 0.05 mL           # or {default: 0.05 mL, V_seg17: 0.1 mL}; "%" = of the column mean
+//       start_beats: 8           # file time 0 = this many beats after the model's initial state
+//     estimate:                  # per-segment families and global parameters
+//       sigma0: {segments: all, prior: 5.3e4, spread: 50 %, transform: log}
+//       R_p: {spread: 20 %}      # a global parameter (no segments:)
+//     filter:
+//       beats: 4                 # passes over the measured beat
+//       forgetting: 0.9          # fading memory per frame, (0, 1]
+//       r_inflation: 4           # the filter's R = (r_inflation x noise)^2
+//       sigma_points: simplex    # simplex | canonical | star
+//       spin_up: per-member      # per-member | common (initial state of the first prediction)
+//       failure_policy: retry-then-skip   # retry-then-skip | skip | abort
+//       max_retries: 2
+//       shrink: 0.5
+//       inflation: 0.1
+//       threads: 2               # --threads overrides
+//     truth:                     # optional (twin experiments): per family a list or one value
+//       sigma0: [21.2 kPa, 21.2 kPa, 53 kPa, ...]
+//
+// A family key names a family tag ("contractility") or the common stem of its parameters'
+// names ("sigma0" for sigma0_01..17); the heart period is the parameter tagged "period".
+#pragma once
+
+#include "app/config.h"
+#include "estimation/prior.h"
+#include "estimation/roukf/roukf.h"
+
+#include <Eigen/Core>
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace sigmaheart::app {
+
+struct PersonalizeProblem {
+  estimation::RoukfData data;             // SI, times on the model's clock
+  estimation::Prior prior;                // the estimated parameters, in config order
+  estimation::RoukfOptions filter;        // truth set when the config gives one
+  std::filesystem::path observation_file;
+  Eigen::VectorXd file_times;             // [s] as in the file (beat-local)
+  std::vector<std::string> display_units; // per channel ("mL")
+  Eigen::VectorXd display_factor;         // display = SI * factor
+  Eigen::VectorXd noise_si;               // per channel, the measurement noise std
+  double r_inflation = 1.0;
+  int start_beats = 0;
+  double period = 0.0;
+  std::string spin_up = "per-member";
+  std::vector<int> segments;              // per estimated parameter: 1-based segment, 0 = global
+  std::vector<std::string> families;      // per estimated parameter: the config key
+};
+
+// Every problem is an InputError at the offending key (file:line:column).
+PersonalizeProblem parse_personalize(const Config& config);
+
+}  // namespace sigmaheart::app
