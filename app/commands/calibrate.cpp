@@ -69,7 +69,7 @@ int run_calibrate(const CalibrateOptions& o, CommandContext& ctx) {
   const bool root_rank = estimation::mpi_rank() == 0;
   io::Provenance prov;
   prov.start_utc = io::utc_now();
-  const Config config = load_config(o.config, o.overrides);
+  const Config config = load_config(o.config, o.overrides, *ctx.models);
   CalibrationProblem problem = parse_calibration_problem(config);
   const std::filesystem::path output =
       !o.output.empty() ? o.output : default_output_path(o.config, "calibrate");

@@ -424,7 +424,7 @@ std::vector<int> rank_by(const Eigen::MatrixXd& score, int k) {
 int run_sensitivity(const SensitivityCommandOptions& o, CommandContext& ctx) {
   io::Provenance prov;
   prov.start_utc = io::utc_now();
-  const Config config = load_config(o.config, o.overrides);
+  const Config config = load_config(o.config, o.overrides, *ctx.models);
   SensitivitySetup setup = parse_sensitivity(config);
   const std::filesystem::path output =
       !o.output.empty() ? o.output : default_output_path(o.config, "sensitivity");
