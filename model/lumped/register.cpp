@@ -33,7 +33,7 @@ RegionalOptions read_regional_options(const OptionReader& node) {
   }
   const std::vector<std::string> patterns = {"synchronous", "lbbb", "pacing", "times"};
   const auto act = node.child("activation");
-  if (act->defined()) {
+  if (node.has("activation")) {
     std::string p;
     if (act->is_map()) {
       act->check_keys({"pattern", "duration", "segment", "conduction_velocity", "times"});
