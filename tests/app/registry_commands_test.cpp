@@ -86,7 +86,7 @@ TEST(RegistryCommands, ParamsShowsTheTagsOfEveryParameter) {
     }
     for (const auto& f : model::parameter_families()) tagged += line.find("  " + f + " ") != std::string::npos;
   }
-  EXPECT_EQ(tagged, 5) << r.out;
+  EXPECT_EQ(tagged, 6) << r.out;
 }
 
 TEST(RegistryCommands, CalibrateRecoversSegmentContractilitiesFromSynthesizedCurves) {
@@ -155,6 +155,47 @@ TEST(RegistryCommands, SobolStudyOfTheTestModelSeesTheSymmetryOfItsSegments) {
   double sum = 0.0;
   for (const char* name : {"sigma0_01", "sigma0_02", "R_d"}) sum += ef[name]["S1"].get<double>();
   EXPECT_NEAR(sum, 1.0, 0.1);  // nearly additive over these ranges
+}
+
+// Personalisation of the two segments with the ROUKF from their regional volumes. DISABLED_: the
+// personalize command on this branch still finds segments by parameter names (sigma0_XX) and the
+// period by the name "period", so this would pass without testing the tags (it does pass so,
+// with --gtest_also_run_disabled_tests: 3.49e4 +- 1.2e3 Pa and 5.98e4 +- 2.6e3 Pa). Enable it
+// once personalize finds segments by tags (family "contractility", "regional_volume" channels).
+TEST(RegistryCommands, DISABLED_PersonalizeFindsTheSegmentsOfTheTestModelByTags) {
+  const auto dir = scratch_dir();
+  const auto truth = write_file(dir / "truth.yaml", std::string("name: truth\n") + kModel);
+  const auto csv = dir / "regional.csv";
+  const CliRun s = run({"--log-level", "off", "synthesize", truth.string(), "-o", csv.string(), "--frames", "30",
+                        "--channels", "V_seg01,V_seg02", "--noise", "V_seg01=0.3 mL", "--noise", "V_seg02=0.3 mL",
+                        "--seed", "4", "--set", "sigma0_01=" + std::to_string(kSigma1), "--set",
+                        "sigma0_02=" + std::to_string(kSigma2)});
+  ASSERT_EQ(s.code, app::kExitOk) << s.err;
+  const auto cfg = write_file(dir / "pers.yaml",
+                              std::string("name: pers\n") + kModel +
+                                  "personalize:\n"
+                                  "  observations:\n"
+                                  "    file: regional.csv\n"
+                                  "    channels: all\n"
+                                  "    noise: 0.3 mL\n"
+                                  "    start_beats: 20\n"
+                                  "  estimate:\n"
+                                  "    sigma0: {segments: all, prior: 5.0e4, spread: 50 %, transform: log}\n"
+                                  "  filter: {beats: 3, forgetting: 0.9, r_inflation: 2, threads: 2}\n"
+                                  "  truth:\n"
+                                  "    sigma0: [35 kPa, 60 kPa]\n");
+  const CliRun r = run({"--log-level", "off", "personalize", cfg.string(), "-o", (dir / "r.h5").string(),
+                        "--summary", (dir / "r.json").string()});
+  ASSERT_EQ(r.code, app::kExitOk) << r.err << r.out;
+  const auto j = read_json(dir / "r.json");
+  EXPECT_EQ(j["termination"], "completed");
+  EXPECT_EQ(j["members"], 3);  // simplex: 2 parameters + 1
+  const double s1 = j["parameters"]["sigma0_01"]["value"].get<double>();
+  const double s2 = j["parameters"]["sigma0_02"]["value"].get<double>();
+  EXPECT_EQ(j["parameters"]["sigma0_02"]["segment"], 2);
+  EXPECT_NEAR(s1, kSigma1, 0.1 * kSigma1);
+  EXPECT_NEAR(s2, kSigma2, 0.1 * kSigma2);
+  EXPECT_LT(j["parameters"]["sigma0_01"]["std"].get<double>(), j["parameters"]["sigma0_01"]["prior_std"].get<double>());
 }
 
 }  // namespace

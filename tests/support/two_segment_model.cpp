@@ -16,13 +16,13 @@ constexpr double kCar = 1.125e-8;    // arterial compliance [m^3/Pa]
 
 // theta in the order of default_parameters().
 struct Theta {
-  double s1, s2, e_min, r_d, p_ven;
+  double s1, s2, e_min, r_d, p_ven, period;
   explicit Theta(const Eigen::Ref<const Eigen::VectorXd>& t)
-      : s1(t(0)), s2(t(1)), e_min(t(2)), r_d(t(3)), p_ven(t(4)) {}
+      : s1(t(0)), s2(t(1)), e_min(t(2)), r_d(t(3)), p_ven(t(4)), period(t(5)) {}
 };
 
-double activation(double t) {
-  const double tau = t - TwoSegmentModel::kPeriod * std::floor(t / TwoSegmentModel::kPeriod);
+double activation(double t, double period) {
+  const double tau = t - period * std::floor(t / period);
   if (tau >= kSystole) return 0.0;
   const double s = std::sin(std::numbers::pi * tau / kSystole);
   return s * s;
@@ -33,7 +33,7 @@ struct Pressures {
 };
 
 Pressures pressures(const Theta& th, double t, double v_lv) {
-  const double e = activation(t);
+  const double e = activation(t, th.period);
   const double e1 = th.e_min + kKappa * th.s1 * e;
   const double e2 = th.e_min + kKappa * th.s2 * e;
   return {e1, e2, (v_lv - 2.0 * kV0) / (1.0 / e1 + 1.0 / e2)};
@@ -74,6 +74,7 @@ model::ParameterSpace TwoSegmentModel::default_parameters() {
       {"E_min", "Pa/m^3", 2.1e7, 2e6, 2e8, "passive elastance of a segment", "elastance", 0},
       {"R_d", "Pa s/m^3", 1.33e8, 1e7, 1e9, "peripheral resistance", "afterload_resistance", 0},
       {"P_ven", "Pa", 1067.0, 100.0, 5000.0, "venous (filling) pressure", "preload_pressure", 0},
+      {"period", "s", 0.8, 0.4, 1.5, "heart period (systole lasts 0.3 s)", "period", 0},
   });
 }
 
@@ -138,15 +139,15 @@ model::RunResult TwoSegmentModel::run(const Eigen::Ref<const Eigen::VectorXd>& t
   model::RunResult r;
   if (r.status = check(theta); !r.status.ok()) return r;
   const Theta th(theta);
-  const int steps = static_cast<int>(std::lround(kPeriod / options_.dt));
-  const double h = kPeriod / steps;
+  const int steps = static_cast<int>(std::lround(th.period / options_.dt));
+  const double h = th.period / steps;
   const int every = options_.output_every;
   const int samples = steps / every + 1;
   Eigen::Vector2d x = initial_state(theta).x;
   r.trajectory.channels = channels();
   r.trajectory.times.resize(samples);
   r.trajectory.values.resize(samples, 5);
-  r.info.period = kPeriod;
+  r.info.period = th.period;
   for (int beat = 0; beat < options_.max_beats; ++beat) {
     const Eigen::Vector2d start = x;
     for (int k = 0; k < samples; ++k) {

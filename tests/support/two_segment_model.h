@@ -5,12 +5,13 @@
 //
 // Two wall segments p = 1, 2 share the cavity pressure P_lv; segment p has the elastance
 //   E_p(t) = E_min + kappa sigma0_p e(t),  e(t) = sin^2(pi tau / T_s) for tau = t mod T < T_s, else 0
+// (T: the parameter `period`)
 // (Suga-Sagawa time-varying elastance, Suga et al. 1973 Circ Res 32:314), so its volume is
 // V_seg,p = V0 + P_lv / E_p and P_lv = (V_lv - 2 V0) / (1/E_1 + 1/E_2). Diode valves and a
 // two-element Windkessel close the loop:
 //   dV_lv/dt = q_in - q_out,  q_in = max(P_ven - P_lv, 0) / R_mv,  q_out = max(P_lv - P_ar, 0) / R_ao
 //   C_ar dP_ar/dt = q_out - P_ar / R_d
-// Constants: T = 0.8 s, T_s = 0.3 s, kappa = 2e4 1/m^3, V0 = 10 mL, R_mv = 1.33e6 Pa s/m^3,
+// Constants: T_s = 0.3 s, kappa = 2e4 1/m^3, V0 = 10 mL, R_mv = 1.33e6 Pa s/m^3,
 // R_ao = 2.67e6 Pa s/m^3, C_ar = 1.125e-8 m^3/Pa. Defaults give EDV ~ 120 mL, EF ~ 0.55.
 #pragma once
 
@@ -28,13 +29,11 @@ struct TwoSegmentOptions {
 
 class TwoSegmentModel final : public model::SteppableSimulator {
  public:
-  static constexpr double kPeriod = 0.8;
-
   TwoSegmentModel(TwoSegmentOptions options, model::ParameterSpace parameters)
       : options_(options), parameters_(std::move(parameters)) {}
 
   // sigma0_01, sigma0_02 [Pa] (contractility, segments 1 and 2), E_min [Pa/m^3] (elastance),
-  // R_d [Pa s/m^3] (afterload_resistance), P_ven [Pa] (preload_pressure).
+  // R_d [Pa s/m^3] (afterload_resistance), P_ven [Pa] (preload_pressure), period [s] (period).
   static model::ParameterSpace default_parameters();
 
   std::string name() const override { return "test-two-segment"; }
