@@ -10,30 +10,30 @@
 // Parameter and channel tags (Parameter::family, Channel::family; ParameterSpace::find and
 // regional) are one vocabulary shared by every model, so estimators find parameters by role:
 //
-//   family                 unit      what
-//   contractility          Pa        maximal active stress sigma0 (per segment: sigma0_XX)
-//   activation_time        s         depolarisation time of a segment (Td_XX)
-//   stiffness_scale        1         passive stiffness multiplier of a segment (stiff_XX)
-//   scar_fraction          1         non-contractile fraction of a segment (scar_XX)
-//   activation_rate        1/s       rate of contraction onset (k_ATP)
-//   relaxation_rate        1/s       rate of relaxation (k_RS)
-//   activation_duration    s         action-potential duration (APD)
-//   active_stiffness       Pa        active and series-element stiffness (k0, Es)
-//   active_viscosity       Pa s      contractile-element viscosity (mu)
-//   crossbridge_kinetics   1         cross-bridge destruction and length dependence (alpha, n0_*)
-//   passive_stiffness      Pa or 1   passive law coefficients (c1, c2, c_exp, b_exp, K_patch)
-//   passive_viscosity      Pa s      passive wall viscosity (eta)
-//   geometry               m         reference radius and wall thickness (R0, d0)
-//   wall_density           kg/m^3    wall mass per volume (rho)
-//   period                 s         heart period
-//   valve_conductance      m^3/(Pa s) valve and leak conductances (K_at, K_ar, K_p)
-//   afterload_resistance   Pa s/m^3  arterial resistances (R_p, R_d)
-//   afterload_compliance   m^3/Pa    arterial compliances (C_p, C_d)
-//   venous_pressure        Pa        pressure downstream of the periphery (P_sv)
-//   preload_pressure       Pa        atrial pressure baseline and kick (P_at0, P_at_kick)
-//   cavity_compliance      m^3/Pa    cavity compliance (C_cav)
-//   elastance              Pa/m^3    time-varying elastance models (E_max, E_min)
-//   unloaded_volume        m^3       volume at zero pressure (V0)
+//   family                 unit        what
+//   contractility          Pa          maximal active stress sigma0 (per segment: sigma0_XX)
+//   activation_time        s           depolarisation time of a segment (Td_XX)
+//   stiffness_scale        1           passive stiffness multiplier of a segment (stiff_XX)
+//   scar_fraction          1           non-contractile fraction of a segment (scar_XX)
+//   activation_rate        1/s         rate of contraction onset (k_ATP)
+//   relaxation_rate        1/s         rate of relaxation (k_RS)
+//   activation_duration    s           action-potential duration (APD)
+//   active_stiffness       Pa          active and series-element stiffness (k0, Es)
+//   active_viscosity       Pa s        contractile-element viscosity (mu)
+//   crossbridge_kinetics   1           cross-bridge destruction and length dependence (alpha, n0_*)
+//   passive_stiffness      Pa or 1     passive law coefficients (c1, c2, c_exp, b_exp, K_patch)
+//   passive_viscosity      Pa s        passive wall viscosity (eta)
+//   geometry               m           reference radius and wall thickness (R0, d0)
+//   wall_density           kg/m^3      wall mass per volume (rho)
+//   period                 s           heart period
+//   valve_conductance      m^3/(Pa s)  valve and leak conductances (K_at, K_ar, K_p)
+//   afterload_resistance   Pa s/m^3    arterial resistances (R_p, R_d)
+//   afterload_compliance   m^3/Pa      arterial compliances (C_p, C_d)
+//   venous_pressure        Pa          pressure downstream of the periphery (P_sv)
+//   preload_pressure       Pa          atrial pressure baseline and kick (P_at0, P_at_kick)
+//   cavity_compliance      m^3/Pa      cavity compliance (C_cav)
+//   elastance              Pa/m^3      time-varying elastance models (E_max, E_min)
+//   unloaded_volume        m^3         volume at zero pressure (V0)
 // and for channels: regional_volume (V_segXX, m^3). A regional parameter or channel has segment
 // 1..N (AHA segment or patch), a global one segment 0.
 #pragma once
