@@ -45,8 +45,10 @@ std::string join_command_line(int argc, const char* const* argv) {
 
 }  // namespace
 
-int run_cli(int argc, const char* const* argv, std::ostream& out, std::ostream& err) {
+int run_cli(int argc, const char* const* argv, std::ostream& out, std::ostream& err,
+            const model::ModelRegistry& models) {
   CommandContext ctx{out, err, join_command_line(argc, argv), {}};
+  ctx.models = &models;
   CLI::App app{"sigmaheart: personalise Bestel-Clement-Sorine heart models from clinical data",
                "sigmaheart"};
   app.footer(kFooter);
@@ -90,10 +92,11 @@ int run_cli(int argc, const char* const* argv, std::ostream& out, std::ostream& 
   }
 }
 
-int run_cli(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+int run_cli(const std::vector<std::string>& args, std::ostream& out, std::ostream& err,
+            const model::ModelRegistry& models) {
   std::vector<const char*> argv = {"sigmaheart"};
   for (const auto& a : args) argv.push_back(a.c_str());
-  return run_cli(static_cast<int>(argv.size()), argv.data(), out, err);
+  return run_cli(static_cast<int>(argv.size()), argv.data(), out, err, models);
 }
 
 void add_set_option(CLI::App& sub, std::vector<std::string>& overrides) {

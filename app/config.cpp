@@ -1,5 +1,7 @@
 #include "app/config.h"
 
+#include "app/model_options.h"
+
 #include <mutex>
 #include <stdexcept>
 
@@ -28,7 +30,8 @@ std::mutex& sections_mutex() {
   return m;
 }
 
-Config parse_common(ConfigFile file, const std::filesystem::path& path) {
+Config parse_common(ConfigFile file, const std::filesystem::path& path,
+                    const model::ModelRegistry& models) {
   Config c;
   const ConfigNode root = file.root();
   std::vector<std::string> allowed = {"name", "description", "seed"};
@@ -49,13 +52,14 @@ Config parse_common(ConfigFile file, const std::filesystem::path& path) {
       seed.fail("seed: expected a non-negative integer, got " + seed.describe());
     }
   }
-  c.simulator = parse_simulator_section(root.require_child("simulator"));
+  c.simulator = parse_simulator_section(root.require_child("simulator"), models);
   c.file = std::move(file);
   return c;
 }
 
 Config load_with_overrides(ConfigFile file, const std::filesystem::path& path,
-                           const std::vector<std::string>& overrides) {
+                           const std::vector<std::string>& overrides,
+                           const model::ModelRegistry& models) {
   for (const auto& assignment : overrides) {
     const bool quote = assignment.find_first_of(" \t") != std::string::npos;
     const std::string origin = quote ? "--set '" + assignment + "'" : "--set " + assignment;
@@ -65,7 +69,7 @@ Config load_with_overrides(ConfigFile file, const std::filesystem::path& path,
     }
     file.set(expand_override_key(assignment.substr(0, eq)), assignment.substr(eq + 1), origin);
   }
-  return parse_common(std::move(file), path);
+  return parse_common(std::move(file), path, models);
 }
 
 }  // namespace
@@ -93,16 +97,17 @@ std::string expand_override_key(const std::string& key) {
   return key;
 }
 
-SimulatorSection parse_simulator_section(const ConfigNode& node) {
+SimulatorSection parse_simulator_section(const ConfigNode& node,
+                                         const model::ModelRegistry& models) {
   node.check_keys({"model", "numerics", "parameters"});
   SimulatorSection s;
   const ConfigNode model_node = node.require_child("model");
-  s.model = model_node.as_choice(simulator_names());
-  const SimulatorEntry* entry = find_simulator(s.model);
+  s.model = model_node.as_choice(models.names());
+  const model::ModelSetup* setup = models.find(s.model);
 
   // In the order a config is usually written: numerics, then parameters.
-  s.builder = entry->parse_numerics(node["numerics"]);
-  s.parameters = entry->default_parameters();
+  s.build = setup->configure(ConfigOptionReader(node["numerics"]));
+  s.parameters = s.build.parameters();
   s.sources.assign(static_cast<size_t>(s.parameters.size()), ValueSource::kDefault);
 
   const ConfigNode params = node["parameters"];
@@ -123,13 +128,14 @@ SimulatorSection parse_simulator_section(const ConfigNode& node) {
   return s;
 }
 
-Config load_config(const std::filesystem::path& path, const std::vector<std::string>& overrides) {
-  return load_with_overrides(ConfigFile::load(path), path, overrides);
+Config load_config(const std::filesystem::path& path, const std::vector<std::string>& overrides,
+                   const model::ModelRegistry& models) {
+  return load_with_overrides(ConfigFile::load(path), path, overrides, models);
 }
 
 Config parse_config(const std::string& text, const std::string& file_name,
-                    const std::vector<std::string>& overrides) {
-  return load_with_overrides(ConfigFile::parse(text, file_name), file_name, overrides);
+                    const std::vector<std::string>& overrides, const model::ModelRegistry& models) {
+  return load_with_overrides(ConfigFile::parse(text, file_name), file_name, overrides, models);
 }
 
 }  // namespace sigmaheart::app

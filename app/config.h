@@ -14,7 +14,7 @@
 #pragma once
 
 #include "app/config_node.h"
-#include "app/simulators.h"
+#include "model/registry.h"
 #include "model/simulator.h"
 
 #include <cstdint>
@@ -36,10 +36,10 @@ struct SimulatorSection {
   std::string model;                      // registry name ("lumped-sphere")
   model::ParameterSpace parameters;       // the model's space, nominal = the values to run
   std::vector<ValueSource> sources;       // one per parameter
-  SimulatorBuilder builder;               // numerics already parsed and validated
+  model::ModelBuild build;                // numerics already parsed and validated
 
   // A new simulator with these parameters and numerics.
-  std::unique_ptr<model::Simulator> make() const { return builder(parameters); }
+  std::unique_ptr<model::Simulator> make() const { return build.make(parameters); }
 };
 
 struct Config;
@@ -62,18 +62,21 @@ struct Config {
   SimulatorSection simulator;
 };
 
-// Parses `simulator:`. Unknown parameters, bad units and out-of-bounds values are InputErrors at
-// the offending key or value.
-SimulatorSection parse_simulator_section(const ConfigNode& node);
+// Parses `simulator:` with the models of `models` (`model:` must name one of them). Unknown
+// parameters, bad units and out-of-bounds values are InputErrors at the offending key or value.
+SimulatorSection parse_simulator_section(const ConfigNode& node,
+                                         const model::ModelRegistry& models = model::builtin_models());
 
 // Reads a config, applies `--set key=value` overrides and parses the common sections.
 // Override keys: "name", "description", "seed"; a bare parameter name ("sigma0"),
 // "numerics.<key>", "parameters.<name>",
 // or a full dotted path from the top ("simulator.model", "calibration.max_iterations").
-Config load_config(const std::filesystem::path& path, const std::vector<std::string>& overrides = {});
+Config load_config(const std::filesystem::path& path, const std::vector<std::string>& overrides = {},
+                   const model::ModelRegistry& models = model::builtin_models());
 // The same from text (tests, configs generated in memory).
 Config parse_config(const std::string& text, const std::string& file_name,
-                    const std::vector<std::string>& overrides = {});
+                    const std::vector<std::string>& overrides = {},
+                    const model::ModelRegistry& models = model::builtin_models());
 
 // The dotted path an override key stands for ("sigma0" -> "simulator.parameters.sigma0").
 std::string expand_override_key(const std::string& key);

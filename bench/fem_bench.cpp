@@ -13,7 +13,7 @@
 
 namespace {
 
-using namespace sigmaheart::fem;
+using namespace sigmaheart::model::fem;
 
 double peak_rss_mb() {
   std::ifstream in("/proc/self/status");

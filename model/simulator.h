@@ -52,11 +52,10 @@ struct Parameter {
   double lower = -std::numeric_limits<double>::infinity();
   double upper = std::numeric_limits<double>::infinity();
   std::string doc;    // one line: what it is and where the default comes from
-  // Structure as data (docs/models.md, "Parameter tags"): estimators find parameters by tags,
-  // never by name patterns or casts. family names what the parameter is, shared by its regional
-  // copies ("contractility", "activation_time", "stiffness_scale", "scar_fraction", ...; empty:
-  // untagged); segment is the AHA segment or patch (1-based) of a regional parameter, 0 for a
-  // global one.
+  // Structure as data: estimators find parameters by tags, never by name patterns or casts.
+  // family names what the parameter is, shared by its regional copies ("contractility",
+  // "activation_time", "afterload_resistance", ...; the vocabulary is in model/registry.h);
+  // segment is the AHA segment or patch (1-based) of a regional parameter, 0 for a global one.
   std::string family;
   int segment = 0;
   bool regional() const { return segment > 0; }

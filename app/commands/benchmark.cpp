@@ -7,9 +7,9 @@
 #include "app/errors.h"
 
 #ifdef SIGMAHEART_HAVE_FEM
+#include "app/io/mesh_io.h"
 #include "model/fem/cavity.h"
 #include "model/fem/land_benchmark.h"
-#include "model/fem/mesh_io.h"
 #endif
 
 #include <cstdio>
@@ -36,7 +36,7 @@ struct BenchmarkOptions {
 
 #ifdef SIGMAHEART_HAVE_FEM
 std::string reference_text(int problem) {
-  using R = fem::LandReference;
+  using R = model::fem::LandReference;
   std::ostringstream os;
   if (problem == 1) os << "deflection z " << R::kProblem1Deflection << " mm";
   if (problem == 2) os << "apex z endo " << R::kProblem2EndoApex << ", epi " << R::kProblem2EpiApex << " mm";
@@ -47,12 +47,12 @@ std::string reference_text(int problem) {
 }
 
 int run_benchmark(const BenchmarkOptions& o, CommandContext& ctx) {
-  fem::LandOptions lo;
+  model::fem::LandOptions lo;
   lo.problem = o.problem;
   lo.load_steps = o.load_steps;
   lo.quadrature_degree = o.quadrature;
   try {
-    lo.base = fem::parse_base_condition(o.base);
+    lo.base = model::fem::parse_base_condition(o.base);
   } catch (const std::invalid_argument& e) {
     throw InputError("--base", 0, 0, e.what());
   }
@@ -66,7 +66,7 @@ int run_benchmark(const BenchmarkOptions& o, CommandContext& ctx) {
   for (int k : o.refinements) {
     lo.refinement = k;
     if (auto m = lo.validate(); !m.empty()) throw InputError("--refinement", 0, 0, m);
-    const fem::LandResult r = fem::run_land_problem(lo, [&](double lam, int it, double res) {
+    const model::fem::LandResult r = model::fem::run_land_problem(lo, [&](double lam, int it, double res) {
       ctx.err << "\r  K=" << k << " load " << std::fixed << std::setprecision(3) << lam << " (" << it
               << " Newton, |R| " << std::scientific << std::setprecision(1) << res << ")" << std::defaultfloat
               << std::flush;
@@ -85,17 +85,17 @@ int run_benchmark(const BenchmarkOptions& o, CommandContext& ctx) {
     if (!o.vtu.empty()) {
       std::filesystem::create_directories(o.vtu);
       const std::string stem = "land_p" + std::to_string(o.problem) + "_k" + std::to_string(k);
-      fem::VtuFields f;
+      io::VtuFields f;
       f.displacement = &r.state.u;
       f.pressure = &r.state.p;
       f.fibres = &r.element_fibres;
       std::vector<int> aha;
       if (o.problem != 1) {
-        aha = fem::aha_labels(r.mesh).element_segment;
+        aha = model::fem::aha_labels(r.mesh).element_segment;
         f.aha = &aha;
       }
-      fem::write_vtu((o.vtu / (stem + ".vtu")).string(), r.mesh, f);
-      fem::write_pvd((o.vtu / (stem + ".pvd")).string(), {{1.0, stem + ".vtu"}});
+      io::write_vtu((o.vtu / (stem + ".vtu")).string(), r.mesh, f);
+      io::write_pvd((o.vtu / (stem + ".pvd")).string(), {{1.0, stem + ".vtu"}});
     }
   }
   if (!o.output.empty()) {

@@ -49,7 +49,7 @@ std::function<void(const estimation::UtProgress&)> ut_progress(ProgressLine& pro
 int run_calibrate(const CalibrateOptions& o, CommandContext& ctx) {
   io::Provenance prov;
   prov.start_utc = io::utc_now();
-  const Config config = load_config(o.config, o.overrides);
+  const Config config = load_config(o.config, o.overrides, *ctx.models);
   const CalibrationProblem problem = parse_calibration_problem(config);
   const std::filesystem::path output =
       !o.output.empty() ? o.output : default_output_path(o.config, "calibrate");

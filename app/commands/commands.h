@@ -31,6 +31,8 @@ struct CommandContext {
   int rank = 0;
   int ranks = 1;
   bool root() const { return rank == 0; }
+  // The models configs may name (tests add stand-ins; see run_cli in app/cli.h).
+  const model::ModelRegistry* models = &model::builtin_models();
 };
 
 void register_simulate(CLI::App& app, CommandContext& ctx);

@@ -1,5 +1,6 @@
 // `sigmaheart params CONFIG`: the parameters of the configured simulator as a table, with the
-// values the config sets (units are the model's SI units; config values may use others).
+// values the config sets (units are the model's SI units; config values may use others), and the
+// tags estimators find them by (family, segment; model/registry.h) when the model tags them.
 #include "app/commands/commands.h"
 #include "app/config.h"
 #include "app/errors.h"
@@ -24,14 +25,25 @@ std::string number(double v) {
 }
 
 int run_params(const ParamsOptions& o, CommandContext& ctx) {
-  const Config config = load_config(o.config, o.overrides);
+  const Config config = load_config(o.config, o.overrides, *ctx.models);
   const auto& space = config.simulator.parameters;
-  const std::vector<std::string> header = {"name", "unit", "nominal", "lower", "upper", "from", "doc"};
+  bool tagged = false;
+  for (const auto& p : space.all()) tagged = tagged || !p.family.empty();
+  std::vector<std::string> header = {"name", "unit", "nominal", "lower", "upper", "from"};
+  if (tagged) header.insert(header.end(), {"family", "segment"});
+  header.push_back("doc");
   std::vector<std::vector<std::string>> rows;
   for (int i = 0; i < space.size(); ++i) {
     const auto& p = space[i];
-    rows.push_back({p.name, p.unit, number(p.nominal), number(p.lower), number(p.upper),
-                    to_string(config.simulator.sources[static_cast<size_t>(i)]), p.doc});
+    std::vector<std::string> row = {p.name, p.unit, number(p.nominal), number(p.lower),
+                                    number(p.upper),
+                                    to_string(config.simulator.sources[static_cast<size_t>(i)])};
+    if (tagged) {
+      row.push_back(p.family.empty() ? "-" : p.family);
+      row.push_back(p.regional() ? std::to_string(p.segment) : "-");
+    }
+    row.push_back(p.doc);
+    rows.push_back(std::move(row));
   }
   std::vector<size_t> width(header.size());
   for (size_t c = 0; c < header.size(); ++c) width[c] = header[c].size();

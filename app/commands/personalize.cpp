@@ -51,7 +51,7 @@ std::function<bool(const estimation::RoukfStep&)> roukf_progress(ProgressLine& p
 int run_personalize(const PersonalizeOptions& o, CommandContext& ctx) {
   io::Provenance prov;
   prov.start_utc = io::utc_now();
-  const Config config = load_config(o.config, o.overrides);
+  const Config config = load_config(o.config, o.overrides, *ctx.models);
   PersonalizeProblem problem = parse_personalize(config);
   const std::filesystem::path output =
       !o.output.empty() ? o.output : default_output_path(o.config, "personalize");

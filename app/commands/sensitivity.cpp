@@ -42,7 +42,7 @@ struct SensitivityCommandOptions {
 int run_sensitivity(const SensitivityCommandOptions& o, CommandContext& ctx) {
   io::Provenance prov;
   prov.start_utc = io::utc_now();
-  const Config config = load_config(o.config, o.overrides);
+  const Config config = load_config(o.config, o.overrides, *ctx.models);
   SensitivitySetup setup = parse_sensitivity(config);
   const std::filesystem::path output =
       !o.output.empty() ? o.output : default_output_path(o.config, "sensitivity");

@@ -54,7 +54,7 @@ int run_specificity_command(const SpecificityCommandOptions& o, CommandContext& 
   io::Provenance prov;
   prov.start_utc = io::utc_now();
   const auto wall_start = std::chrono::steady_clock::now();
-  const Config config = load_config(o.config, o.overrides);
+  const Config config = load_config(o.config, o.overrides, *ctx.models);
   const SpecificitySetup setup = parse_specificity_setup(config);
   const std::filesystem::path output =
       !o.output.empty() ? o.output : default_output_path(o.config, "specificity");

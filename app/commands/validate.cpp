@@ -17,7 +17,7 @@ struct ValidateOptions {
 };
 
 int run_validate(const ValidateOptions& o, CommandContext& ctx) {
-  const Config config = load_config(o.config, o.overrides);
+  const Config config = load_config(o.config, o.overrides, *ctx.models);
   const ConfigNode root = config.file.root();
   std::vector<std::string> checked = {"simulator"};
   for (const auto& section : config_sections()) {

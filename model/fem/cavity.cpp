@@ -9,7 +9,7 @@
 #include <numbers>
 #include <stdexcept>
 
-namespace sigmaheart::fem {
+namespace sigmaheart::model::fem {
 
 std::string AhaOptions::validate() const {
   if (!(reference_direction.norm() > 0)) return "reference_direction must be non-zero";
@@ -150,4 +150,4 @@ CavityVolumes cavity_volumes(const Mesh& mesh, const Eigen::MatrixX3d& x, const 
   return out;
 }
 
-}  // namespace sigmaheart::fem
+}  // namespace sigmaheart::model::fem

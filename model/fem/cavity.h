@@ -30,7 +30,7 @@
 #include <string>
 #include <vector>
 
-namespace sigmaheart::fem {
+namespace sigmaheart::model::fem {
 
 inline constexpr int kAhaSegments = 17;
 
@@ -76,4 +76,4 @@ CavityVolumes cavity_volumes(const Mesh& mesh, const Eigen::MatrixX3d& x, const 
 // Nodes shared by the endocardium and the base (the base ring).
 std::vector<int> base_ring(const Mesh& mesh, int endo_tag = kEndocardium, int base_tag = kBase);
 
-}  // namespace sigmaheart::fem
+}  // namespace sigmaheart::model::fem

@@ -2,7 +2,7 @@
 
 #include <stdexcept>
 
-namespace sigmaheart::fem {
+namespace sigmaheart::model::fem {
 namespace {
 
 std::vector<QuadraturePoint3> make_tet(int degree) {
@@ -120,4 +120,4 @@ void tri_shape(int order, const Eigen::Vector2d& xi, Eigen::VectorXd& N, Eigen::
   }
 }
 
-}  // namespace sigmaheart::fem
+}  // namespace sigmaheart::model::fem

@@ -7,7 +7,7 @@
 
 #include <vector>
 
-namespace sigmaheart::fem {
+namespace sigmaheart::model::fem {
 
 struct QuadraturePoint3 {
   Eigen::Vector3d xi;
@@ -29,4 +29,4 @@ void tet_shape(int order, const Eigen::Vector3d& xi, Eigen::VectorXd& N, Eigen::
 // Values (n) and reference derivatives (n x 2) of the P1 (3) or P2 (6) triangle.
 void tri_shape(int order, const Eigen::Vector2d& xi, Eigen::VectorXd& N, Eigen::MatrixXd& dN);
 
-}  // namespace sigmaheart::fem
+}  // namespace sigmaheart::model::fem

@@ -11,7 +11,7 @@
 #include <numbers>
 #include <stdexcept>
 
-namespace sigmaheart::fem {
+namespace sigmaheart::model::fem {
 namespace {
 constexpr double kDeg = std::numbers::pi / 180.0;
 
@@ -163,4 +163,4 @@ std::vector<Frame> uniform_fibres(const Mesh& mesh, const Eigen::Vector3d& f, co
   return std::vector<Frame>(static_cast<size_t>(mesh.n_tets()), R);
 }
 
-}  // namespace sigmaheart::fem
+}  // namespace sigmaheart::model::fem

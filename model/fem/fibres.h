@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-namespace sigmaheart::fem {
+namespace sigmaheart::model::fem {
 
 struct FibreOptions {
   double alpha_endo_deg = 70.0;   // helix angle at the endocardium [deg]
@@ -45,4 +45,4 @@ std::vector<Frame> rule_based_fibres(const Mesh& mesh, const Eigen::VectorXd& t,
 // One frame per tetrahedron with the fibre along `f` (beam of Land problem 1).
 std::vector<Frame> uniform_fibres(const Mesh& mesh, const Eigen::Vector3d& f, const Eigen::Vector3d& s);
 
-}  // namespace sigmaheart::fem
+}  // namespace sigmaheart::model::fem

@@ -5,7 +5,7 @@
 #include <chrono>
 #include <stdexcept>
 
-namespace sigmaheart::fem {
+namespace sigmaheart::model::fem {
 namespace {
 constexpr double kMm = 1e-3;
 constexpr double kKPa = 1e3;
@@ -115,4 +115,4 @@ LandResult run_land_problem(const LandOptions& o, const ProgressCallback& progre
   return r;
 }
 
-}  // namespace sigmaheart::fem
+}  // namespace sigmaheart::model::fem

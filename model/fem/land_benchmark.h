@@ -18,7 +18,7 @@
 #include <string>
 #include <vector>
 
-namespace sigmaheart::fem {
+namespace sigmaheart::model::fem {
 
 // Published reference values [mm] used for comparison (see experiments/land-benchmark/README.md
 // for where each comes from and how sure we are).
@@ -65,4 +65,4 @@ std::unique_ptr<Mechanics> land_mechanics(const LandOptions& options);
 // The problem's final load (problem 3: pressure 15 kPa and Ta 60 kPa; reached in two stages).
 Load land_load(int problem);
 
-}  // namespace sigmaheart::fem
+}  // namespace sigmaheart::model::fem

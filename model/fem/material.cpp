@@ -5,7 +5,7 @@
 #include <cmath>
 #include <stdexcept>
 
-namespace sigmaheart::fem {
+namespace sigmaheart::model::fem {
 namespace {
 
 // T with vec(R^T E R) = T vec(E) (row-major vec): T(3a+b, 3I+J) = R(I,a) R(J,b).
@@ -156,4 +156,4 @@ void MooneyRivlin::stress(const Eigen::Matrix3d& E, const Frame&, Eigen::Matrix3
   D = 4.0 * (p_.c1 * d2f1 + p_.c2 * d2f2);
 }
 
-}  // namespace sigmaheart::fem
+}  // namespace sigmaheart::model::fem

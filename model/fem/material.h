@@ -14,7 +14,7 @@
 #include <memory>
 #include <string>
 
-namespace sigmaheart::fem {
+namespace sigmaheart::model::fem {
 
 using Matrix9d = Eigen::Matrix<double, 9, 9>;
 
@@ -84,4 +84,4 @@ class MooneyRivlin final : public Material {
   MooneyRivlinParameters p_;
 };
 
-}  // namespace sigmaheart::fem
+}  // namespace sigmaheart::model::fem

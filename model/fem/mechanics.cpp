@@ -12,7 +12,7 @@
 #include <sstream>
 #include <stdexcept>
 
-namespace sigmaheart::fem {
+namespace sigmaheart::model::fem {
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -510,4 +510,4 @@ Summary Mechanics::solve(State& state, const Load& from, const Load& to, const P
   return sum;
 }
 
-}  // namespace sigmaheart::fem
+}  // namespace sigmaheart::model::fem

@@ -25,7 +25,7 @@
 #include <string>
 #include <vector>
 
-namespace sigmaheart::fem {
+namespace sigmaheart::model::fem {
 
 using SparseMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
 
@@ -139,4 +139,4 @@ class Mechanics {
   double ref_volume_ = 0.0;
 };
 
-}  // namespace sigmaheart::fem
+}  // namespace sigmaheart::model::fem

@@ -9,7 +9,7 @@
 #include <stdexcept>
 #include <unordered_map>
 
-namespace sigmaheart::fem {
+namespace sigmaheart::model::fem {
 namespace {
 
 double signed_volume(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
@@ -425,4 +425,4 @@ Mesh box_mesh(double lx, double ly, double lz, int nx, int ny, int nz, int order
   return mesh;
 }
 
-}  // namespace sigmaheart::fem
+}  // namespace sigmaheart::model::fem

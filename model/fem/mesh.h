@@ -17,7 +17,7 @@
 #include <string>
 #include <vector>
 
-namespace sigmaheart::fem {
+namespace sigmaheart::model::fem {
 
 // Surface tags of boundary faces. Meshes read from gmsh map physical names containing "endo",
 // "epi", "base" to the first three; unnamed physical ids are kept as they are.
@@ -116,4 +116,4 @@ Mesh ellipsoid_mesh(const EllipsoidGeometry& geometry, const EllipsoidMeshOption
 // kBottom (z = 0), others kNoTag.
 Mesh box_mesh(double lx, double ly, double lz, int nx, int ny, int nz, int order);
 
-}  // namespace sigmaheart::fem
+}  // namespace sigmaheart::model::fem

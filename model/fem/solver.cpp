@@ -7,7 +7,7 @@
 
 #include <stdexcept>
 
-namespace sigmaheart::fem {
+namespace sigmaheart::model::fem {
 
 using SparseMatrixInt = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
 
@@ -69,4 +69,4 @@ long long SparseDirectSolver::factor_nonzeros() {
   return static_cast<long long>(impl_->lu.nnzL() + impl_->lu.nnzU());
 }
 
-}  // namespace sigmaheart::fem
+}  // namespace sigmaheart::model::fem

@@ -8,7 +8,7 @@
 
 #include <memory>
 
-namespace sigmaheart::fem {
+namespace sigmaheart::model::fem {
 
 enum class LinearSolver { kAuto, kSparseLU, kUmfPack };
 
@@ -33,4 +33,4 @@ class SparseDirectSolver {
   std::unique_ptr<Impl> impl_;
 };
 
-}  // namespace sigmaheart::fem
+}  // namespace sigmaheart::model::fem

@@ -459,7 +459,8 @@ ParameterSpace RegionalVentricle::default_parameters(const RegionalOptions& opti
     if (p.name != "sigma0") out.push_back(p);
   }
   out.push_back({"K_patch", "Pa", 1e5, 0.0, 1e8,
-                 "mean-field tethering stiffness K (c_p - 1); 0: pure MultiPatch (regional.h)"});
+                 "mean-field tethering stiffness K (c_p - 1); 0: pure MultiPatch (regional.h)",
+                 "passive_stiffness", 0});
   const Parameter& s0 = sphere[sphere.index_or_throw("sigma0")];
   const int N = options.patches();
   const bool aha = N == 17;

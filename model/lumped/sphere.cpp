@@ -67,6 +67,33 @@ std::string name_of(int i) {
   return shell::global_names()[static_cast<size_t>(i < kSigma0 ? i : i - 1)];
 }
 
+// Tag (Parameter::family) of parameter slot i: its physical role, from the vocabulary of
+// model/registry.h.
+const char* family_of(int i) {
+  switch (static_cast<P>(i)) {
+    case kRho: return "wall_density";
+    case kR0: case kD0: return "geometry";
+    case kC1: case kC2: case kCexp: case kBexp: return "passive_stiffness";
+    case kEta: return "passive_viscosity";
+    case kEs: case kK0: return "active_stiffness";
+    case kMu: return "active_viscosity";
+    case kAlpha: case kN0Slope: case kN0Emax: return "crossbridge_kinetics";
+    case kSigma0: return "contractility";
+    case kKATP: return "activation_rate";
+    case kKRS: return "relaxation_rate";
+    case kAPD: return "activation_duration";
+    case kPeriod: return "period";
+    case kKat: case kKar: case kKp: return "valve_conductance";
+    case kRp: case kRd: return "afterload_resistance";
+    case kCp: case kCd: return "afterload_compliance";
+    case kPsv: return "venous_pressure";
+    case kPat0: case kPatKick: return "preload_pressure";
+    case kCcav: return "cavity_compliance";
+    case kNumParams: break;
+  }
+  return "";
+}
+
 // One backward-Euler step from xo over [t0, t0 + h]. Three of the eight equations are linear in
 // one unknown each and are eliminated exactly before Newton: y = y^n + h v (r0), P_d from r4
 // given P_ar, and (k_c, tau_c) from r6, r7 given e_c (bcs::reduced_step). Newton then runs on
@@ -184,8 +211,9 @@ ParameterSpace LumpedSphere::default_parameters() {
   // Sources: [C14] Caruel et al. 2014 (Biomech Model Mechanobiol 13:897) and the CCMLC2014-like
   // working set of MODELS.md s.2; [T] tuned so that the healthy beat meets MODELS.md s.7.
   std::vector<Parameter> p(kNumParams);
+  // family: the parameter's role (model/registry.h lists the vocabulary).
   auto set = [&](int i, const char* unit, double nominal, double lo, double hi, const char* doc) {
-    p[static_cast<size_t>(i)] = Parameter{name_of(i), unit, nominal, lo, hi, doc, "", 0};
+    p[static_cast<size_t>(i)] = Parameter{name_of(i), unit, nominal, lo, hi, doc, family_of(i), 0};
   };
   set(kRho, "kg/m^3", 1e3, 500.0, 2000.0, "wall density; tissue ~ water [C14]");
   set(kR0, "m", 2.4e-2, 5e-3, 6e-2, "reference (unloaded) sphere radius [C14 working set]");
@@ -224,8 +252,6 @@ ParameterSpace LumpedSphere::default_parameters() {
       "exponential passive stiffening (MODELS.md s.2) [T: static EDP 5.5/7.8/13.5 mmHg at "
       "140/160/180 mL]");
   set(kBexp, "1", 1.0, 0.0, 50.0, "exponent b_exp of the passive stiffening (J1 - 3)^2 [T]");
-  p[kSigma0].family = "contractility";
-  p[kPeriod].family = "period";
   return ParameterSpace(std::move(p));
 }
 

@@ -155,5 +155,39 @@ TEST(Config, RegisteredSectionsAreAcceptedAtTheTopLevel) {
   EXPECT_NO_THROW(parse_config(text, "x.yaml"));
 }
 
+// The regional model's numerics are parsed in model/lumped/register.cpp through the
+// model::OptionReader interface; its errors keep file:line:column and the did-you-mean.
+TEST(Config, RegionalNumericsErrorsReadThroughTheModelKeepTheirLocation) {
+  const std::string head = "name: r\nsimulator:\n  model: lumped-regional\n";
+  EXPECT_EQ(error_of([&] { parse_config(head + "  numerics: {activation: lbbbb}\n", "r.yaml"); }),
+            "r.yaml:4:26: simulator.numerics.activation: unknown value 'lbbbb' (did you mean 'lbbb'?); "
+            "expected one of: synchronous, lbbb, pacing, times");
+  EXPECT_EQ(error_of([&] { parse_config(head + "  numerics: {area_shares: []}\n", "r.yaml"); }),
+            "r.yaml:4:27: expected at least one share");
+  EXPECT_EQ(error_of([&] {
+              parse_config(head + "  numerics: {activation: {pattern: times, times: 5}}\n", "r.yaml");
+            }),
+            "r.yaml:4:50: simulator.numerics.activation.times: expected a list of numbers in s, got '5'");
+  EXPECT_EQ(error_of([&] {
+              parse_config(head + "  numerics: {activation: {pattern: times, times: [0, 1 ms]}}\n", "r.yaml");
+            }),
+            "r.yaml:4:26: simulator.numerics: activation_times has 2 entries, expected 17");
+  const Config c = parse_config(head + "  numerics: {activation: {pattern: lbbb, duration: 120 ms}}\n", "r.yaml");
+  const auto& p = c.simulator.parameters;
+  double latest = 0.0;
+  for (int i : p.regional("activation_time")) latest = std::max(latest, p[i].nominal);
+  EXPECT_NEAR(latest, 0.12, 1e-12);  // the numerics set the nominal Td_XX
+}
+
+TEST(Config, ModelsComeFromTheRegistryGiven) {
+  const std::string text = "name: s\nsimulator: {model: test-beat, numerics: {samples: 5}}\n";
+  EXPECT_NE(error_of([&] { parse_config(text, "s.yaml"); }).find("unknown value 'test-beat'"), std::string::npos);
+  EXPECT_EQ(error_of([&] { parse_config(text, "s.yaml", {}, sigmaheart::testing::stand_in_models()); }),
+            "s.yaml:2:51: numerics.samples: expected an integer >= 10");
+  const Config c = parse_config(text, "s.yaml", {"numerics.samples=20"}, sigmaheart::testing::stand_in_models());
+  EXPECT_EQ(c.simulator.model, "test-beat");
+  EXPECT_EQ(c.simulator.make()->run(c.simulator.parameters.nominal()).trajectory.samples(), 20);
+}
+
 }  // namespace
 }  // namespace sigmaheart::app

@@ -1,11 +1,11 @@
 // Shared helpers of the app tests: a scratch directory per test, files written from text, and a
-// tiny stand-in simulator ("test-beat") registered beside the real ones so that command tests
-// run in milliseconds and can fail on demand.
+// tiny stand-in simulator ("test-beat") registered beside the real ones (in a registry of the
+// tests' own, handed to run_cli) so that command tests run in milliseconds and can fail on demand.
 #pragma once
 
 #include "app/cli.h"
 #include "app/errors.h"
-#include "app/simulators.h"
+#include "model/registry.h"
 #include "model/simulator.h"
 
 #include <gtest/gtest.h>
@@ -93,21 +93,32 @@ class BeatStandIn final : public model::Simulator {
 };
 
 // Registers "test-beat" (numerics: {samples: int >= 10}).
-inline void register_stand_in() {
-  app::register_simulator(app::SimulatorEntry{
-      "test-beat", "stand-in beat for tests", [] { return BeatStandIn::defaults(); },
-      [](const app::ConfigNode& numerics) -> app::SimulatorBuilder {
+inline void register_stand_in(model::ModelRegistry& registry) {
+  registry.add(model::ModelSetup{
+      "test-beat", "stand-in beat for tests", [](const model::OptionReader& numerics) {
         numerics.check_keys({"samples"});
-        const int samples = numerics.optional<int>("samples", 81);
-        if (samples < 10) numerics["samples"].fail("numerics.samples: expected an integer >= 10");
-        return [samples](const model::ParameterSpace& p) -> std::unique_ptr<model::Simulator> {
-          return std::make_unique<BeatStandIn>(p, samples);
-        };
+        const int samples = numerics.integer("samples", 81);
+        if (samples < 10) numerics.fail("samples", "numerics.samples: expected an integer >= 10");
+        return model::ModelBuild(
+            BeatStandIn::defaults(),
+            [samples](const model::ParameterSpace& p) -> std::unique_ptr<model::Simulator> {
+              return std::make_unique<BeatStandIn>(p, samples);
+            });
       }});
 }
 
-// One in-process run of the command line with its exit code and captured streams. The stand-in
-// simulator is registered first, so configs may name "test-beat".
+// The built-in models plus "test-beat".
+inline const model::ModelRegistry& stand_in_models() {
+  static const model::ModelRegistry registry = [] {
+    model::ModelRegistry r = model::builtin_models();
+    register_stand_in(r);
+    return r;
+  }();
+  return registry;
+}
+
+// One in-process run of the command line with its exit code and captured streams, with
+// stand_in_models(), so configs may name "test-beat".
 struct CliRun {
   int code;
   std::string out;
@@ -115,9 +126,8 @@ struct CliRun {
 };
 
 inline CliRun cli(const std::vector<std::string>& args) {
-  register_stand_in();
   std::ostringstream out, err;
-  const int code = app::run_cli(args, out, err);
+  const int code = app::run_cli(args, out, err, stand_in_models());
   return {code, out.str(), err.str()};
 }
 

@@ -1,18 +1,26 @@
 // Contract tests written once and run on every simulator (STYLE.md practice 7):
 // determinism, clone independence, dimensions, failure as a Status, and for steppable simulators
-// replay from a saved state. A simulator's test file instantiates them with
-//   INSTANTIATE_TEST_SUITE_P(LumpedSphere, SimulatorContract, ::testing::Values(ContractCase{...}));
+// replay from a saved state. Every model of a registry runs them with its default numerics:
+//   INSTANTIATE_TEST_SUITE_P(Builtin, SimulatorContract,
+//                            ::testing::ValuesIn(contract_cases(model::builtin_models())),
+//                            contract_case_name);
+// (tests/model/registry_test.cpp does this for the built-in models, so a newly registered model is
+// covered without a line of test code); a test file may add cases for other numerics with
+// ::testing::Values(ContractCase{...}).
 #pragma once
 
+#include "model/registry.h"
 #include "model/simulator.h"
 
 #include <gtest/gtest.h>
 
+#include <cctype>
 #include <functional>
 #include <limits>
 #include <memory>
 #include <string>
 #include <thread>
+#include <vector>
 
 namespace sigmaheart::testing {
 
@@ -27,6 +35,26 @@ struct ContractCase {
 };
 
 inline void PrintTo(const ContractCase& c, std::ostream* os) { *os << c.name; }
+
+// One case per model of `registry`, built with its default numerics (an absent `numerics:`).
+// The registry must outlive the tests (builtin_models() or a static).
+inline std::vector<ContractCase> contract_cases(const model::ModelRegistry& registry) {
+  std::vector<ContractCase> cases;
+  for (const auto& setup : registry.all()) {
+    const model::ModelSetup* s = &setup;
+    cases.push_back({setup.name, [s] { return s->configure_defaults().make(); }});
+  }
+  return cases;
+}
+
+// gtest parameter names allow letters, digits and '_' only: "lumped-sphere" -> "lumped_sphere".
+inline std::string contract_case_name(const ::testing::TestParamInfo<ContractCase>& info) {
+  std::string name = info.param.name;
+  for (char& c : name) {
+    if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+  }
+  return name;
+}
 
 class SimulatorContract : public ::testing::TestWithParam<ContractCase> {
  protected:

@@ -78,7 +78,6 @@ TEST(SpecificityCohort, OnlySigma0DiffersAndTheStudyNamesSigma0First) {
           "  R_d: {spread: 20 %}\n"
           "calibration: {mode: iterate-keep-spread, max_iterations: 8, tolerance: 1.0e-3}\n"
           "specificity: {groups: [healthy, failing]}\n");
-  sigmaheart::testing::register_stand_in();
   std::ostringstream out, err;
   const int code = run_cli({"--log-level", "off", "specificity", config.string(), "-o",
                             (dir / "r.h5").string(), "--summary", (dir / "r.json").string()},

@@ -7,7 +7,7 @@
 #include <cmath>
 #include <numbers>
 
-namespace sigmaheart::fem {
+namespace sigmaheart::model::fem {
 namespace {
 
 // Cavity volume of the endocardial ellipsoid between the planes z1 < z2:
@@ -126,4 +126,4 @@ TEST(Cavity, LabelsCoverAllSeventeenSegmentsInTheDocumentedOrder) {
 }
 
 }  // namespace
-}  // namespace sigmaheart::fem
+}  // namespace sigmaheart::model::fem

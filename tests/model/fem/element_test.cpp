@@ -5,7 +5,7 @@
 
 #include <cmath>
 
-namespace sigmaheart::fem {
+namespace sigmaheart::model::fem {
 namespace {
 
 double factorial(int n) { return n <= 1 ? 1.0 : n * factorial(n - 1); }
@@ -60,4 +60,4 @@ TEST(Element, ShapeFunctionsPartitionUnityAndInterpolateNodes) {
 }
 
 }  // namespace
-}  // namespace sigmaheart::fem
+}  // namespace sigmaheart::model::fem

@@ -10,7 +10,7 @@
 #include <cmath>
 #include <numbers>
 
-namespace sigmaheart::fem {
+namespace sigmaheart::model::fem {
 namespace {
 
 // Helix angle of f against the circumferential direction, about the wall normal [deg].
@@ -73,4 +73,4 @@ TEST(Fibres, UniformFibresAreOrthonormal) {
 }
 
 }  // namespace
-}  // namespace sigmaheart::fem
+}  // namespace sigmaheart::model::fem

@@ -6,7 +6,7 @@
 
 #include <cmath>
 
-namespace sigmaheart::fem {
+namespace sigmaheart::model::fem {
 namespace {
 
 LandResult run(int problem, int k) {
@@ -45,4 +45,4 @@ TEST(LandBenchmarkSlow, Problem3ApexWithinTolerance) {
 }
 
 }  // namespace
-}  // namespace sigmaheart::fem
+}  // namespace sigmaheart::model::fem

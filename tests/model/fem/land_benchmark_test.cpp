@@ -4,7 +4,7 @@
 
 #include <gtest/gtest.h>
 
-namespace sigmaheart::fem {
+namespace sigmaheart::model::fem {
 namespace {
 
 TEST(LandBenchmark, Problem1CoarseBeamDeflectsUpward) {
@@ -37,4 +37,4 @@ TEST(LandBenchmark, OptionsAreValidated) {
 }
 
 }  // namespace
-}  // namespace sigmaheart::fem
+}  // namespace sigmaheart::model::fem

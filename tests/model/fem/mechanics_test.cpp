@@ -9,7 +9,7 @@
 
 #include <random>
 
-namespace sigmaheart::fem {
+namespace sigmaheart::model::fem {
 namespace {
 
 // Relative difference between the assembled tangent and central differences of the residual.
@@ -153,4 +153,4 @@ TEST(Mechanics, SlidingBaseInflatesAndKeepsTheBaseInItsPlane) {
 }
 
 }  // namespace
-}  // namespace sigmaheart::fem
+}  // namespace sigmaheart::model::fem

@@ -7,7 +7,7 @@
 #include <set>
 #include <numbers>
 
-namespace sigmaheart::fem {
+namespace sigmaheart::model::fem {
 namespace {
 
 TEST(Mesh, EllipsoidMeshesAreConformingAndPositivelyOriented) {
@@ -103,4 +103,4 @@ TEST(Mesh, InvalidOptionsAreRejected) {
 }
 
 }  // namespace
-}  // namespace sigmaheart::fem
+}  // namespace sigmaheart::model::fem

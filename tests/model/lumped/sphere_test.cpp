@@ -1,7 +1,6 @@
 #include "model/lumped/sphere.h"
 
 #include "model/units.h"
-#include "tests/model/simulator_contract.h"
 
 #include <gtest/gtest.h>
 
@@ -15,7 +14,6 @@ namespace {
 
 using units::kMilliLitre;
 using units::kMmHg;
-using sigmaheart::testing::SimulatorContract;
 
 // Beat indices from a trajectory (a tiny local helper; the real observers live in observers/).
 struct Indices {
@@ -60,10 +58,7 @@ RunResult run_with(const ParameterSpace& space, SphereOptions options = {}) {
 }
 
 // ---------------------------------------------------------------------------------------------
-INSTANTIATE_TEST_SUITE_P(
-    LumpedSphere, SimulatorContract,
-    ::testing::Values(sigmaheart::testing::ContractCase{
-        "default", [] { return std::make_unique<LumpedSphere>(); }, 0.1, 0.3, 0.05}));
+// The simulator contract runs on the registered "lumped-sphere" (tests/model/registry_test.cpp).
 
 TEST(LumpedSphere, DeclaresEveryParameterWithUnitBoundsAndSource) {
   const auto space = LumpedSphere::default_parameters();

@@ -1,4 +1,4 @@
-#include "model/fem/mesh_io.h"
+#include "app/io/mesh_io.h"
 
 #include <Eigen/Dense>
 
@@ -10,7 +10,10 @@
 #include <sstream>
 #include <unordered_map>
 
-namespace sigmaheart::fem {
+namespace sigmaheart::app::io {
+
+using namespace sigmaheart::model::fem;  // Mesh, Frame, the boundary tags
+
 namespace {
 
 // Whitespace tokeniser that remembers line numbers, for messages "file:line: expected ...".
@@ -445,4 +448,4 @@ void write_pvd(const std::string& path, const std::vector<std::pair<double, std:
   commit(tmp, path);
 }
 
-}  // namespace sigmaheart::fem
+}  // namespace sigmaheart::app::io

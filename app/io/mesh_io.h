@@ -1,4 +1,4 @@
-// The mesh-format layer of model/fem: the only file I/O of the library.
+// The file formats of the 3D meshes of model/fem (kept in app/ so the libraries do no file I/O).
 //
 //  - gmsh .msh reader, ASCII format 2.2 and 4.x: 4- and 10-node tetrahedra, 3- and 6-node
 //    triangles with physical tags. Boundary faces are rebuilt from the tetrahedra (oriented
@@ -19,7 +19,7 @@
 #include <string>
 #include <vector>
 
-namespace sigmaheart::fem {
+namespace sigmaheart::app::io {
 
 class MeshReadError : public std::runtime_error {
  public:
@@ -27,20 +27,20 @@ class MeshReadError : public std::runtime_error {
 };
 
 // Reads a gmsh file; `text` variant parses a string (name used in messages).
-Mesh read_gmsh(const std::string& path);
-Mesh parse_gmsh(const std::string& text, const std::string& name = "<string>");
+model::fem::Mesh read_gmsh(const std::string& path);
+model::fem::Mesh parse_gmsh(const std::string& text, const std::string& name = "<string>");
 
 struct VtuFields {
   const Eigen::VectorXd* displacement = nullptr;  // 3 per node [m]
   const Eigen::VectorXd* pressure = nullptr;      // per vertex [Pa] (interpolated to mid nodes)
-  const std::vector<Frame>* fibres = nullptr;     // per tetrahedron
+  const std::vector<model::fem::Frame>* fibres = nullptr;     // per tetrahedron
   const std::vector<int>* aha = nullptr;          // per tetrahedron
 };
 
 // Writes one VTU file (quadratic tetrahedra as VTK_QUADRATIC_TETRA). Throws std::runtime_error.
-void write_vtu(const std::string& path, const Mesh& mesh, const VtuFields& fields);
+void write_vtu(const std::string& path, const model::fem::Mesh& mesh, const VtuFields& fields);
 
 // Writes a .pvd collection listing (time, file) pairs (file names relative to the .pvd).
 void write_pvd(const std::string& path, const std::vector<std::pair<double, std::string>>& steps);
 
-}  // namespace sigmaheart::fem
+}  // namespace sigmaheart::app::io

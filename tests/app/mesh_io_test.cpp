@@ -1,5 +1,5 @@
 // gmsh reader (v2 and v4.1, linear and quadratic, tags, errors) and the ParaView writer.
-#include "model/fem/mesh_io.h"
+#include "app/io/mesh_io.h"
 
 #include <gtest/gtest.h>
 
@@ -7,8 +7,10 @@
 #include <fstream>
 #include <sstream>
 
-namespace sigmaheart::fem {
+namespace sigmaheart::app::io {
 namespace {
+
+using namespace sigmaheart::model::fem;
 
 // A generated mesh written in gmsh 2.2 format (gmsh node order: tet10 slots 8 and 9 swapped),
 // with its tagged boundary triangles and physical names.
@@ -138,4 +140,4 @@ TEST(MeshIo, WritesVtuAndPvd) {
 }
 
 }  // namespace
-}  // namespace sigmaheart::fem
+}  // namespace sigmaheart::app::io

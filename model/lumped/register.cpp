@@ -1,0 +1,82 @@
+#include "model/lumped/register.h"
+
+#include <memory>
+
+namespace sigmaheart::model::lumped {
+
+SphereOptions read_sphere_options(const OptionReader& node, const std::vector<std::string>& extra) {
+  SphereOptions o;
+  std::vector<std::string> keys = {"dt", "min_beats", "max_beats", "periodic_tolerance",
+                                   "output_every", "newton_tolerance", "newton_max_iterations"};
+  keys.insert(keys.end(), extra.begin(), extra.end());
+  node.check_keys(keys);
+  o.dt = node.quantity("dt", "s", o.dt);
+  o.min_beats = node.integer("min_beats", o.min_beats);
+  o.max_beats = node.integer("max_beats", o.max_beats);
+  o.periodic_tolerance = node.number("periodic_tolerance", o.periodic_tolerance);
+  o.output_every = node.integer("output_every", o.output_every);
+  o.newton_tolerance = node.number("newton_tolerance", o.newton_tolerance);
+  o.newton_max_iterations = node.integer("newton_max_iterations", o.newton_max_iterations);
+  if (const std::string msg = o.validate(); !msg.empty()) {
+    // The messages start with the field name ("dt = -1 s must lie in (0, 0.05]"): point there.
+    node.fail(msg.substr(0, msg.find_first_of(" =")), node.path() + ": " + msg);
+  }
+  return o;
+}
+
+RegionalOptions read_regional_options(const OptionReader& node) {
+  RegionalOptions o;
+  o.numerics = read_sphere_options(node, {"activation", "area_shares"});
+  if (node.has("area_shares")) {
+    o.area_shares = node.quantities("area_shares", "1");
+    if (o.area_shares.empty()) node.fail("area_shares", "expected at least one share");
+  }
+  const std::vector<std::string> patterns = {"synchronous", "lbbb", "pacing", "times"};
+  const auto act = node.child("activation");
+  if (node.has("activation")) {
+    std::string p;
+    if (act->is_map()) {
+      act->check_keys({"pattern", "duration", "segment", "conduction_velocity", "times"});
+      p = act->choice("pattern", patterns);
+    } else {
+      p = node.choice("activation", patterns);
+    }
+    o.activation = p == "times" ? ActivationPattern::kExplicit : *parse_activation_pattern(p);
+  }
+  if (act->is_map()) {
+    o.lbbb_duration = act->quantity("duration", "s", o.lbbb_duration);
+    o.pacing_segment = act->integer("segment", o.pacing_segment);
+    o.conduction_velocity = act->quantity("conduction_velocity", "m/s", o.conduction_velocity);
+    if (act->has("times")) o.activation_times = act->quantities("times", "s");
+  }
+  if (const std::string msg = o.validate(); !msg.empty()) {
+    node.fail(msg.rfind("area_shares", 0) == 0 ? "area_shares" : "activation",
+              node.path() + ": " + msg);
+  }
+  return o;
+}
+
+void register_lumped_models(ModelRegistry& registry) {
+  registry.add(ModelSetup{
+      "lumped-sphere",
+      "0D Bestel-Clement-Sorine sphere with valves and a two-stage Windkessel (Caruel 2014)",
+      [](const OptionReader& numerics) {
+        const SphereOptions options = read_sphere_options(numerics);
+        return ModelBuild(LumpedSphere::default_parameters(),
+                          [options](const ParameterSpace& p) -> std::unique_ptr<Simulator> {
+                            return std::make_unique<LumpedSphere>(options, p);
+                          });
+      }});
+  registry.add(ModelSetup{
+      "lumped-regional",
+      "17 AHA wall patches on the BCS sphere (MultiPatch, Walmsley 2015); regional volumes V_segXX",
+      [](const OptionReader& numerics) {
+        const RegionalOptions options = read_regional_options(numerics);
+        return ModelBuild(RegionalVentricle::default_parameters(options),
+                          [options](const ParameterSpace& p) -> std::unique_ptr<Simulator> {
+                            return std::make_unique<RegionalVentricle>(options, p);
+                          });
+      }});
+}
+
+}  // namespace sigmaheart::model::lumped
