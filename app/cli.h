@@ -6,11 +6,22 @@
 #include <string>
 #include <vector>
 
+namespace sigmaheart::estimation::parallel {
+class Communicator;
+}
+
 namespace sigmaheart::app {
 
 // Parses the arguments, runs the chosen command and returns the exit code (errors.h: 0 ok,
 // 1 runtime failure, 2 bad input). Never throws.
 int run_cli(int argc, const char* const* argv, std::ostream& out, std::ostream& err);
+// The same on every rank of `comm` (main() passes the MPI world; collective). Only rank 0 prints
+// (out, err, logs) and writes files; the others run the same command silently. Every rank returns
+// the largest exit code of all ranks, also when a command failed on one rank only (e.g. an output
+// file that rank 0 could not write); a rank that failed alone, while rank 0 succeeded, prints
+// its error prefixed with "rank N: ".
+int run_cli(int argc, const char* const* argv, std::ostream& out, std::ostream& err,
+            estimation::parallel::Communicator& comm);
 // The same with the arguments after the program name, e.g. {"validate", "configs/healthy.yaml"}.
 int run_cli(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
 

@@ -66,7 +66,7 @@ struct CalibrateOptions {
 };
 
 int run_calibrate(const CalibrateOptions& o, CommandContext& ctx) {
-  const bool root_rank = estimation::mpi_rank() == 0;
+  const bool root_rank = ctx.root();
   io::Provenance prov;
   prov.start_utc = io::utc_now();
   const Config config = load_config(o.config, o.overrides);
@@ -81,9 +81,8 @@ int run_calibrate(const CalibrateOptions& o, CommandContext& ctx) {
 
   estimation::UtOptions options = problem.options;
   if (o.threads > 0) options.ensemble.threads = o.threads;
-  if (estimation::mpi_size() > 1) {
-    options.ensemble.backend = estimation::Backend::kMpi;
-  } else if (options.ensemble.threads == 1) {
+  options.ensemble.communicator = ctx.comm;  // members spread over the ranks, if several
+  if (options.ensemble.threads == 1) {
     options.ensemble.backend = estimation::Backend::kSerial;
   }
 
@@ -156,7 +155,7 @@ int run_calibrate(const CalibrateOptions& o, CommandContext& ctx) {
     prior_std(j) = std::abs(c.transform.dtheta_deta(c.eta_mean())) * c.eta_std();
   }
 
-  fill_provenance(prov, config, ctx, "calibrate", options.ensemble.threads > 0 ? options.ensemble.threads : omp_get_max_threads(), estimation::mpi_size());
+  fill_provenance(prov, config, ctx, "calibrate", options.ensemble.threads > 0 ? options.ensemble.threads : omp_get_max_threads(), ctx.ranks);
   {
     io::Hdf5Writer h5(output);
     io::write_parameters(h5, "/parameters", config.simulator.parameters,
