@@ -49,7 +49,8 @@ CASES = {
 # Provenance and run-environment fields that legitimately differ between the runs.
 IGNORED_KEYS = {"command_line", "start_utc", "end_utc", "ranks", "threads", "wall_time",
                 "elapsed", "elapsed_s", "wall_time_s", "output", "config_file", "host",
-                "git_describe", "version", "seconds", "time_s"}
+                "git_describe", "version", "seconds", "time_s", "wall_seconds",
+                "results_file"}
 RELATIVE_TOLERANCE = 1e-12
 
 
