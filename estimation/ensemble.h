@@ -60,7 +60,9 @@ struct EnsembleOptions {
   // exception thrown by it on any rank is rethrown on every rank after the gather.
   std::function<void(int done, int total)> progress;
   // The ranks to spread members over (not owned; must outlive the Ensemble). Null: this process
-  // only, unless backend is kMpi (then the world communicator).
+  // only, unless backend is kMpi (then the world communicator). With several ranks evaluate() and
+  // map_rows() are collective: call them from one thread per rank (not from inside a parallel
+  // loop over cases; give such inner ensembles no communicator).
   parallel::Communicator* communicator = nullptr;
   // Hand-out of members to workers: dynamic (default; balances members of unequal cost) or the
   // fixed contiguous/static split (for comparison). Results are the same either way.

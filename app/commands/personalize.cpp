@@ -365,6 +365,7 @@ int run_personalize(const PersonalizeOptions& o, CommandContext& ctx) {
   }
   estimation::RoukfOptions& filter = problem.filter;
   if (o.threads > 0) filter.ensemble.threads = o.threads;
+  filter.ensemble.communicator = ctx.comm;  // members spread over the ranks, if several
   if (filter.ensemble.threads == 1) filter.ensemble.backend = estimation::Backend::kSerial;
   const int threads = filter.ensemble.threads > 0 ? filter.ensemble.threads : omp_get_max_threads();
   const int p = static_cast<int>(filter.parameters.size());

@@ -430,6 +430,7 @@ int run_sensitivity(const SensitivityCommandOptions& o, CommandContext& ctx) {
       !o.output.empty() ? o.output : default_output_path(o.config, "sensitivity");
   for (estimation::EnsembleOptions* e : {&setup.oat.ensemble, &setup.morris.ensemble, &setup.sobol.ensemble}) {
     if (o.threads > 0) e->threads = o.threads;
+    e->communicator = ctx.comm;  // design runs spread over the ranks, if several
     if (e->threads == 1 && e->backend == estimation::Backend::kThreads) e->backend = estimation::Backend::kSerial;
   }
   const std::vector<std::string> names = sh::range_names(setup.ranges);

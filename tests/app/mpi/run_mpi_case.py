@@ -123,11 +123,14 @@ def main():
                 f.write("a file where a directory is expected\n")
         problems = []
 
-        # Every rank records its own exit code, so agreement is checked rank by rank.
+        # Every rank records its own exit code, so agreement is checked rank by rank. The wrapper
+        # then exits 0: mpirun kills the remaining processes as soon as one exits non-zero, which
+        # could stop a rank's wrapper before it wrote its code (the rank itself had already
+        # passed the exit-code agreement, since no rank returns before all ranks reached it).
         codes_dir = os.path.join(mpi_dir, "codes")
         os.makedirs(codes_dir)
         wrapper = ('"$@"; c=$?; echo $c > "' + codes_dir +
-                   '/rank.${OMPI_COMM_WORLD_RANK:-${PMI_RANK:-0}}"; exit $c')
+                   '/rank.${OMPI_COMM_WORLD_RANK:-${PMI_RANK:-0}}"; exit 0')
         mpi_cmd = ([o.mpiexec, "-np", str(o.np)] + o.mpi_flag +
                    ["sh", "-c", wrapper, "sh", o.sigmaheart] + fill(args, o.source, mpi_dir))
         mpi = subprocess.run(mpi_cmd, env=env, cwd=mpi_dir, capture_output=True, text=True)
