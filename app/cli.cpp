@@ -2,7 +2,9 @@
 
 #include "app/commands/commands.h"
 #include "app/errors.h"
+#include "app/io/atomic_file.h"
 #include "app/io/results.h"
+#include "estimation/parallel/communicator.h"
 
 #include <CLI/CLI.hpp>
 #include <spdlog/sinks/stdout_color_sinks.h>
@@ -10,6 +12,7 @@
 
 #include <exception>
 #include <filesystem>
+#include <sstream>
 
 namespace sigmaheart::app {
 
@@ -43,12 +46,14 @@ std::string join_command_line(int argc, const char* const* argv) {
   return s;
 }
 
-}  // namespace
-
-int run_cli(int argc, const char* const* argv, std::ostream& out, std::ostream& err,
-            const model::ModelRegistry& models) {
+// run_cli on this rank alone; never throws.
+int run_cli_on_rank(int argc, const char* const* argv, std::ostream& out, std::ostream& err,
+                    estimation::parallel::Communicator& comm, const model::ModelRegistry& models) {
   CommandContext ctx{out, err, join_command_line(argc, argv), {}};
   ctx.models = &models;
+  ctx.rank = comm.rank();
+  ctx.ranks = comm.size();
+  ctx.comm = &comm;
   CLI::App app{"sigmaheart: personalise Bestel-Clement-Sorine heart models from clinical data",
                "sigmaheart"};
   app.footer(kFooter);
@@ -78,7 +83,7 @@ int run_cli(int argc, const char* const* argv, std::ostream& out, std::ostream& 
   }
 
   try {
-    setup_logging(log_level);
+    setup_logging(ctx.root() ? log_level : std::string("off"));
     return ctx.run ? ctx.run() : kExitOk;
   } catch (const InputError& e) {
     err << "error: " << e.what() << "\n";
@@ -89,7 +94,47 @@ int run_cli(int argc, const char* const* argv, std::ostream& out, std::ostream& 
   } catch (const std::exception& e) {
     err << "error: " << e.what() << "\n";
     return kExitRuntimeFailure;
+  } catch (...) {
+    err << "error: unknown exception\n";
+    return kExitRuntimeFailure;
   }
+}
+
+}  // namespace
+
+int run_cli(int argc, const char* const* argv, std::ostream& out, std::ostream& err,
+            const model::ModelRegistry& models) {
+  estimation::parallel::SerialCommunicator one;
+  return run_cli(argc, argv, out, err, one, models);
+}
+
+int run_cli(int argc, const char* const* argv, std::ostream& out, std::ostream& err,
+            estimation::parallel::Communicator& comm, const model::ModelRegistry& models) {
+  if (comm.size() <= 1) return run_cli_on_rank(argc, argv, out, err, comm, models);
+  // Other ranks: silent streams (their error text is kept in case rank 0 succeeds), no file
+  // writes (io::AtomicFile discards them).
+  std::ostringstream discarded;
+  std::ostringstream rank_err;
+  const bool root = comm.root();
+  int code = kExitRuntimeFailure;
+  {
+    io::OutputRankScope outputs(root);
+    try {
+      code = run_cli_on_rank(argc, argv, root ? out : discarded, root ? err : rank_err, comm, models);
+    } catch (...) {  // e.g. std::bad_alloc while setting up the command line
+      code = kExitRuntimeFailure;
+    }
+  }
+  // Every rank reaches this point whatever happened in the command (run_cli_on_rank never
+  // throws), so these two collectives cannot leave a rank waiting.
+  const int agreed = comm.all_reduce_max(code);
+  const int root_code = comm.broadcast(code, 0);
+  if (!root && code != kExitOk && root_code == kExitOk) {
+    std::string text = rank_err.str();
+    if (text.empty()) text = "error: exit code " + std::to_string(code) + "\n";
+    err << "rank " << comm.rank() << ": " << text << std::flush;
+  }
+  return agreed;
 }
 
 int run_cli(const std::vector<std::string>& args, std::ostream& out, std::ostream& err,

@@ -6,7 +6,9 @@
 #include <iostream>
 
 int main(int argc, char** argv) {
-  // Under mpirun every rank runs the same command; MPI is initialised only when compiled in.
+  // Under mpirun every rank runs the same command on the world communicator (only rank 0 prints
+  // and writes files; all ranks return the same exit code). MPI is initialised only when
+  // compiled in; otherwise world() is a single rank.
   sigmaheart::estimation::MpiSession mpi(&argc, &argv);
-  return sigmaheart::app::run_cli(argc, argv, std::cout, std::cerr);
+  return sigmaheart::app::run_cli(argc, argv, std::cout, std::cerr, mpi.world());
 }

@@ -1,8 +1,11 @@
 // Ensemble throughput (forward evaluations per second, the items_per_second column) on 1 and 2
 // threads: a cheap CPU-bound map (scheduling overhead) and the lumped sphere through
 // SimulatorForwardModel (real members); plus the wall time of a one-shot UT calibration of the
-// lumped sphere (3 parameters, star rule, 7 members + centre + fit).
+// lumped sphere (3 parameters, star rule, 7 members + centre + fit). And the hand-out of members
+// of unequal cost (1 ms and 10 ms, the dear ones first) on 2 threads, dynamic vs the fixed split:
+// the `efficiency` counter is (sum of member costs) / (threads x wall time).
 //   build/bench/ensemble_bench --benchmark_filter=Lumped
+//   build/bench/ensemble_bench --benchmark_filter=UnequalCost
 #include "estimation/ensemble.h"
 #include "estimation/forward_model.h"
 #include "estimation/ut_calibration.h"
@@ -10,8 +13,10 @@
 
 #include <benchmark/benchmark.h>
 
+#include <chrono>
 #include <cmath>
 #include <memory>
+#include <thread>
 
 namespace {
 
@@ -57,6 +62,33 @@ class VolumeExtremes final : public observers::Observer {
   std::unique_ptr<Observer> clone() const override { return std::make_unique<VolumeExtremes>(); }
 };
 
+// Busy for theta(0) milliseconds of wall time: spinning (a core is occupied as by a simulation)
+// or sleeping (measures the hand-out alone, unaffected by other load on the machine).
+class SpinModel final : public estimation::ForwardModel {
+ public:
+  explicit SpinModel(bool sleep) : sleep_(sleep) {}
+  int input_size() const override { return 1; }
+  std::vector<std::string> input_names() const override { return {"ms"}; }
+  std::vector<model::Channel> outputs() const override { return {{"spins", "1", ""}}; }
+  model::Status evaluate(const Eigen::Ref<const Eigen::VectorXd>& t,
+                         Eigen::Ref<Eigen::VectorXd> z) override {
+    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double, std::milli>(t(0));
+    if (sleep_) {
+      std::this_thread::sleep_until(end);
+      z(0) = t(0);
+      return model::Status::Ok();
+    }
+    double spins = 0;
+    while (std::chrono::steady_clock::now() < end) spins += 1;
+    z(0) = spins > 0 ? t(0) : 0.0;
+    return model::Status::Ok();
+  }
+  std::unique_ptr<ForwardModel> clone() const override { return std::make_unique<SpinModel>(sleep_); }
+
+ private:
+  bool sleep_;
+};
+
 EnsembleOptions threads(int n) {
   EnsembleOptions o;
   o.backend = Backend::kThreads;
@@ -74,6 +106,37 @@ void BM_EnsembleCheapModel(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * members);
 }
 BENCHMARK(BM_EnsembleCheapModel)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
+
+// 16 members: the first 4 cost 10 ms, the other 12 cost 1 ms (52 ms in all). A contiguous split
+// on 2 threads gives one thread 44 ms and the other 8 ms (efficiency 52 / 88 = 0.59); dynamic
+// hand-out approaches 26 ms (efficiency ~1). Args: threads, schedule (0 dynamic, 1 fixed),
+// cost (0 spinning, 1 sleeping: use it on a loaded machine, where spinning threads share cores).
+void BM_EnsembleUnequalCost(benchmark::State& state) {
+  const int members = 16;
+  Eigen::MatrixXd thetas(members, 1);
+  for (int i = 0; i < members; ++i) thetas(i, 0) = i < 4 ? 10.0 : 1.0;
+  const double serial_ms = thetas.sum();
+  const SpinModel proto(state.range(2) == 1);
+  EnsembleOptions o = threads(static_cast<int>(state.range(0)));
+  o.schedule = state.range(1) == 0 ? estimation::parallel::Schedule::kDynamic
+                                   : estimation::parallel::Schedule::kFixed;
+  estimation::Ensemble ensemble(proto, o);
+  double wall_ms = 0;
+  for (auto _ : state) {
+    const auto start = std::chrono::steady_clock::now();
+    benchmark::DoNotOptimize(ensemble.evaluate(thetas).Z.data());
+    wall_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  }
+  state.SetItemsProcessed(state.iterations() * members);
+  state.SetLabel(estimation::parallel::to_string(o.schedule));
+  state.counters["efficiency"] = serial_ms * static_cast<double>(state.iterations()) /
+                                 (static_cast<double>(state.range(0)) * wall_ms);
+}
+BENCHMARK(BM_EnsembleUnequalCost)
+    ->ArgsProduct({{1, 2}, {0, 1}, {0, 1}})
+    ->ArgNames({"threads", "fixed", "sleep"})
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
 
 const std::vector<std::string> kEstimated = {"sigma0", "R_p", "c1"};
 

@@ -1,6 +1,7 @@
-// Ensembles of independent forward evaluations (sigma points, designs), serial, on threads or
-// on MPI ranks. Each worker owns its own clone of the forward model; nothing mutable is shared, so
-// the numbers do not depend on the backend, the thread count or the rank count (ARCHITECTURE.md,
+// Ensembles of independent forward evaluations (sigma points, designs), serial, on threads and
+// on ranks, implemented on parallel::WorkerPool (estimation/parallel/worker_pool.h). Each worker
+// owns its own clone of the forward model; nothing mutable is shared, so the numbers do not
+// depend on the backend, the thread count, the rank count or the hand-out order (ARCHITECTURE.md,
 // "Parallelism").
 //
 // Failures: a member whose forward model returns a non-ok Status, throws, or returns non-finite
@@ -9,15 +10,19 @@
 // "exception: <what()>" (the contract has no dedicated code for them); non-finite output becomes
 // kNonFinite.
 //
-// MPI (Backend::kMpi, needs SIGMAHEART_HAVE_MPI and an active MpiSession, estimation/mpi.h):
-// every rank runs the same estimator code and calls evaluate()/map_rows() collectively with the
-// same arguments; members are split into contiguous blocks over ranks (and statically over the
-// threads of a rank); rows and statuses are exchanged with MPI_Allgatherv so every rank returns
-// identical results. When MPI is not active, kMpi behaves as one rank. With several ranks per
-// node set `threads` explicitly (0 means all cores in every rank).
+// Ranks: set EnsembleOptions::communicator (commands pass CommandContext::comm). With more than
+// one rank every rank runs the same estimator code and calls evaluate()/map_rows() collectively
+// with the same arguments; members are handed out dynamically over the threads of all ranks and
+// the rows are gathered on every rank, so every rank continues with identical numbers. Without a
+// communicator (or with one rank) members stay in this process. Backend::kMpi is the older way to
+// ask for ranks: it uses the world communicator (parallel::world_communicator(), the MPI world
+// while an MpiSession lives, else one rank). With several ranks per node set `threads`
+// explicitly (0 means all cores in every rank).
 #pragma once
 
 #include "estimation/mpi.h"
+#include "estimation/parallel/communicator.h"
+#include "estimation/parallel/worker_pool.h"
 
 #include "model/simulator.h"
 
@@ -48,11 +53,20 @@ const char* to_string(Backend backend);
 std::optional<Backend> parse_backend(const std::string& text);  // "serial", "threads", "mpi"
 
 struct EnsembleOptions {
-  Backend backend = Backend::kThreads;
+  Backend backend = Backend::kThreads;  // kSerial: one thread per rank
   int threads = 0;  // kThreads and kMpi (threads per rank); 0: all cores (omp_get_max_threads)
-  // Called (serialised, possibly from a worker thread) after each finished member. Under kMpi
-  // each rank reports its own members: done and total count this rank's share.
+  // Called (serialised, possibly from a worker thread) after each finished member. With several
+  // ranks each rank reports its own members (done counts this rank's, total all members). An
+  // exception thrown by it on any rank is rethrown on every rank after the gather.
   std::function<void(int done, int total)> progress;
+  // The ranks to spread members over (not owned; must outlive the Ensemble). Null: this process
+  // only, unless backend is kMpi (then the world communicator). With several ranks evaluate() and
+  // map_rows() are collective: call them from one thread per rank (not from inside a parallel
+  // loop over cases; give such inner ensembles no communicator).
+  parallel::Communicator* communicator = nullptr;
+  // Hand-out of members to workers: dynamic (default; balances members of unequal cost) or the
+  // fixed contiguous/static split (for comparison). Results are the same either way.
+  parallel::Schedule schedule = parallel::Schedule::kDynamic;
   // Empty when valid; kMpi without MPI compiled in is an error.
   std::string validate() const;
 };
@@ -74,26 +88,31 @@ class Ensemble {
 
   // Generic form for estimators with their own member task (the ROUKF advances model states):
   // task(member, worker) runs once per member, worker in [0, workers()), each worker on one thread
-  // at a time. Member order is the static schedule, so results written per member are identical
-  // for any thread count. If tasks throw, the exception of the lowest member index is rethrown
-  // after all members ran. Under kMpi every rank runs all members (results stay in the caller's
-  // memory, so they cannot be distributed); use map_rows() to spread members over ranks.
+  // at a time; a member's result must depend only on the member (not on what its worker ran
+  // before), so results written per member are identical for any thread count and hand-out.
+  // If tasks throw, the exception of the lowest member index is rethrown after all members ran.
+  // With several ranks every rank runs all members (results stay in the caller's memory, so they
+  // cannot be distributed; not collective); use map_rows() to spread members over ranks.
   void for_each(int members, const std::function<void(int member, int worker)>& task);
 
   // Distributed form (added for the ROUKF and others): task(member, worker, row) fills row
   // (width entries, initialised to NaN) and returns a Status. Returns members x width rows and
   // statuses; rows of failed members are NaN. Exceptions and non-finite rows become Statuses as
-  // in evaluate(). Under kMpi the members are spread over ranks and gathered on every rank.
+  // in evaluate(). With several ranks the members are spread over ranks and gathered on every
+  // rank (collective, as evaluate()).
   EnsembleResult map_rows(
       int members, int width,
       const std::function<model::Status(int member, int worker, Eigen::Ref<Eigen::VectorXd> row)>&
           task);
 
   ForwardModel& worker_model(int worker);
+  // The rank context the members are spread over: 0 and 1 when local.
+  int rank() const;
+  int ranks() const;
 
  private:
   EnsembleOptions options_;
-  std::vector<std::unique_ptr<ForwardModel>> clones_;
+  std::unique_ptr<parallel::WorkerPool<ForwardModel>> pool_;
 };
 
 }  // namespace sigmaheart::estimation

@@ -1,10 +1,18 @@
 #include "estimation/mpi.h"
 
 #ifdef SIGMAHEART_HAVE_MPI
+#include "estimation/parallel/mpi_communicator.h"
+
 #include <mpi.h>
 #endif
 
+#include <atomic>
+
 namespace sigmaheart::estimation {
+
+namespace {
+std::atomic<parallel::Communicator*> g_world{nullptr};  // set while an MpiSession lives
+}  // namespace
 
 bool mpi_compiled() {
 #ifdef SIGMAHEART_HAVE_MPI
@@ -26,28 +34,6 @@ bool mpi_active() {
 #endif
 }
 
-int mpi_rank() {
-#ifdef SIGMAHEART_HAVE_MPI
-  if (!mpi_active()) return 0;
-  int rank = 0;
-  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
-  return rank;
-#else
-  return 0;
-#endif
-}
-
-int mpi_size() {
-#ifdef SIGMAHEART_HAVE_MPI
-  if (!mpi_active()) return 1;
-  int size = 1;
-  MPI_Comm_size(MPI_COMM_WORLD, &size);
-  return size;
-#else
-  return 1;
-#endif
-}
-
 MpiSession::MpiSession() : MpiSession(nullptr, nullptr) {}
 
 MpiSession::MpiSession(int* argc, char*** argv) {
@@ -56,21 +42,36 @@ MpiSession::MpiSession(int* argc, char*** argv) {
   MPI_Initialized(&initialised);
   if (!initialised) {
     int provided = 0;
-    MPI_Init_thread(argc, argv, MPI_THREAD_FUNNELED, &provided);
+    MPI_Init_thread(argc, argv, MPI_THREAD_SERIALIZED, &provided);
     owns_ = true;
   }
+  world_ = std::make_unique<parallel::MpiCommunicator>(MPI_COMM_WORLD);
 #else
   (void)argc;
   (void)argv;
+  world_ = std::make_unique<parallel::SerialCommunicator>();
 #endif
+  g_world.store(world_.get());
 }
 
 MpiSession::~MpiSession() {
+  g_world.store(nullptr);
+  world_.reset();
 #ifdef SIGMAHEART_HAVE_MPI
   int finalised = 0;
   MPI_Finalized(&finalised);
   if (owns_ && !finalised) MPI_Finalize();
 #endif
 }
+
+namespace parallel {
+
+Communicator& world_communicator() {
+  static SerialCommunicator serial;
+  Communicator* world = g_world.load();
+  return world ? *world : serial;
+}
+
+}  // namespace parallel
 
 }  // namespace sigmaheart::estimation

@@ -58,16 +58,12 @@ int run_calibrate(const CalibrateOptions& o, CommandContext& ctx) {
   const std::vector<std::string> names = problem.prior.names();
   estimation::SimulatorForwardModel forward(*simulator, *problem.observer, names);
 
-  // Until every entry point fills the rank context, MPI itself is asked as well.
-  const bool root = ctx.root() && estimation::mpi_rank() == 0;
-  const int ranks = std::max(ctx.ranks, estimation::mpi_size());
+  const bool root = ctx.root();
+  const int ranks = ctx.ranks;
   estimation::UtOptions options = problem.options;
   if (o.threads > 0) options.ensemble.threads = o.threads;
-  if (ranks > 1) {
-    options.ensemble.backend = estimation::Backend::kMpi;
-  } else if (options.ensemble.threads == 1) {
-    options.ensemble.backend = estimation::Backend::kSerial;
-  }
+  options.ensemble.communicator = ctx.comm;  // members spread over the ranks, if several
+  if (options.ensemble.threads == 1) options.ensemble.backend = estimation::Backend::kSerial;
   const int threads = options.ensemble.threads > 0 ? options.ensemble.threads : omp_get_max_threads();
   ProgressLine progress(ctx.err, "calibrate", root);
   options.progress = ut_progress(progress);

@@ -10,6 +10,7 @@
 
 #include "app/config.h"
 #include "app/io/results.h"
+#include "estimation/parallel/communicator.h"
 
 #include <CLI/CLI.hpp>
 
@@ -27,9 +28,14 @@ struct CommandContext {
   std::string command_line;   // the whole invocation, for provenance
   std::function<int()> run;   // set by the chosen subcommand
   // The rank context (set up once by run_cli): every rank parses the config and runs the
-  // estimator's collective calls; only the root rank prints results and writes files.
+  // estimator's collective calls; only the root rank prints results and writes files. On other
+  // ranks `out`, `err` and spdlog are silent and io::AtomicFile discards what is written (so
+  // writers need no guard; `if (!ctx.root())` may skip the work of preparing output). Pass
+  // `comm` to EnsembleOptions::communicator to spread members over the ranks. run_cli makes all
+  // ranks exit with the largest exit code of any rank.
   int rank = 0;
   int ranks = 1;
+  estimation::parallel::Communicator* comm = nullptr;  // never null inside a command
   bool root() const { return rank == 0; }
   // The models configs may name (tests add stand-ins; see run_cli in app/cli.h).
   const model::ModelRegistry* models = &model::builtin_models();

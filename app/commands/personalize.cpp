@@ -65,10 +65,11 @@ int run_personalize(const PersonalizeOptions& o, CommandContext& ctx) {
   }
   estimation::RoukfOptions& filter = problem.filter;
   if (o.threads > 0) filter.ensemble.threads = o.threads;
+  filter.ensemble.communicator = ctx.comm;  // members spread over the ranks, if several
   if (filter.ensemble.threads == 1) filter.ensemble.backend = estimation::Backend::kSerial;
   const int threads = filter.ensemble.threads > 0 ? filter.ensemble.threads : omp_get_max_threads();
   const int frames = static_cast<int>(problem.data.times.size());
-  const bool root = ctx.root() && estimation::mpi_rank() == 0;
+  const bool root = ctx.root();
 
   ProgressLine progress(ctx.err, "personalize", root);
   filter.on_step = roukf_progress(progress, filter.beats, frames);

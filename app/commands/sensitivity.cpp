@@ -48,6 +48,7 @@ int run_sensitivity(const SensitivityCommandOptions& o, CommandContext& ctx) {
       !o.output.empty() ? o.output : default_output_path(o.config, "sensitivity");
   estimation::EnsembleOptions ensemble = setup.ensemble();
   if (o.threads > 0) ensemble.threads = o.threads;
+  ensemble.communicator = ctx.comm;  // members spread over the ranks, if several
   if (ensemble.threads == 1 && ensemble.backend == estimation::Backend::kThreads) {
     ensemble.backend = estimation::Backend::kSerial;
   }

@@ -2,12 +2,35 @@
 
 #include "app/errors.h"
 
+#include <unistd.h>
+
+#include <atomic>
 #include <fstream>
+#include <string>
 #include <system_error>
 
 namespace sigmaheart::app::io {
 
+namespace {
+std::atomic<bool> g_writes_outputs{true};
+std::atomic<long> g_scratch_files{0};
+}  // namespace
+
+bool writes_outputs() { return g_writes_outputs.load(); }
+
+OutputRankScope::OutputRankScope(bool writes) : previous_(g_writes_outputs.exchange(writes)) {}
+OutputRankScope::~OutputRankScope() { g_writes_outputs.store(previous_); }
+
 AtomicFile::AtomicFile(std::filesystem::path path) : path_(std::move(path)) {
+  if (!writes_outputs()) {
+    discard_ = true;
+    std::error_code ec;
+    std::filesystem::path dir = std::filesystem::temp_directory_path(ec);
+    if (ec) dir = ".";
+    temp_ = dir / ("sigmaheart-discard-" + std::to_string(::getpid()) + "-" +
+                   std::to_string(g_scratch_files.fetch_add(1)) + path_.extension().string());
+    return;
+  }
   temp_ = path_;
   temp_ += ".tmp";
   if (path_.has_parent_path()) {
@@ -29,6 +52,11 @@ AtomicFile::~AtomicFile() {
 
 void AtomicFile::commit() {
   std::error_code ec;
+  if (discard_) {
+    std::filesystem::remove(temp_, ec);
+    committed_ = true;
+    return;
+  }
   std::filesystem::rename(temp_, path_, ec);  // atomic replacement on POSIX file systems
   if (ec) throw RunFailure("cannot rename " + temp_.string() + " to " + path_.string() + ": " + ec.message());
   committed_ = true;

@@ -1,6 +1,11 @@
 // All-or-nothing output files (ARCHITECTURE.md, tier 2 of errors): everything is written to
 // "<name>.tmp" in the same directory and renamed over <name> only on commit(), so a crash or an
 // error never leaves a half-written file and an existing result is replaced only on success.
+//
+// Under several ranks (ARCHITECTURE.md, "Parallelism") every rank runs the same command, but only
+// the root writes: run_cli opens an OutputRankScope(false) on the other ranks, where AtomicFile
+// writes to a private scratch file in the system temporary directory that commit() removes.
+// Writers therefore need no rank guard and never collide on the same file.
 #pragma once
 
 #include <filesystem>
@@ -10,9 +15,25 @@
 
 namespace sigmaheart::app::io {
 
+// Whether this process writes output files (true unless an OutputRankScope(false) is open).
+bool writes_outputs();
+
+// Sets writes_outputs() for its lifetime (process-wide; restores the previous value).
+class OutputRankScope {
+ public:
+  explicit OutputRankScope(bool writes);
+  ~OutputRankScope();
+  OutputRankScope(const OutputRankScope&) = delete;
+  OutputRankScope& operator=(const OutputRankScope&) = delete;
+
+ private:
+  bool previous_;
+};
+
 class AtomicFile {
  public:
-  // Creates the parent directories of `path` if needed. Nothing is written yet.
+  // Creates the parent directories of `path` if needed. Nothing is written yet. When
+  // !writes_outputs(), temp_path() is a scratch file elsewhere and `path` is never touched.
   explicit AtomicFile(std::filesystem::path path);
   ~AtomicFile();  // removes the temporary file unless commit() succeeded
   AtomicFile(const AtomicFile&) = delete;
@@ -20,13 +41,15 @@ class AtomicFile {
 
   const std::filesystem::path& path() const { return path_; }
   const std::filesystem::path& temp_path() const { return temp_; }
-  // Renames the temporary file over path(). Throws RunFailure when that fails.
+  // Renames the temporary file over path() (removes it when !writes_outputs()). Throws
+  // RunFailure when that fails.
   void commit();
 
  private:
   std::filesystem::path path_;
   std::filesystem::path temp_;
   bool committed_ = false;
+  bool discard_ = false;
 };
 
 // Writes a text file atomically: `fill` writes the content to the stream. Throws RunFailure

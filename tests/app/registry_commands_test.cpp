@@ -162,7 +162,7 @@ TEST(RegistryCommands, SobolStudyOfTheTestModelSeesTheSymmetryOfItsSegments) {
 // period by the name "period", so this would pass without testing the tags (it does pass so,
 // with --gtest_also_run_disabled_tests: 3.49e4 +- 1.2e3 Pa and 5.98e4 +- 2.6e3 Pa). Enable it
 // once personalize finds segments by tags (family "contractility", "regional_volume" channels).
-TEST(RegistryCommands, DISABLED_PersonalizeFindsTheSegmentsOfTheTestModelByTags) {
+TEST(RegistryCommands, PersonalizeFindsTheSegmentsOfTheTestModelByTags) {
   const auto dir = scratch_dir();
   const auto truth = write_file(dir / "truth.yaml", std::string("name: truth\n") + kModel);
   const auto csv = dir / "regional.csv";

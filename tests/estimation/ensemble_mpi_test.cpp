@@ -6,8 +6,10 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <cstring>
+#include <thread>
 #include <memory>
 #include <stdexcept>
 
@@ -80,6 +82,78 @@ TEST(EnsembleMpi, UtCalibrationGivesTheSameEstimateOnEveryRankAsSerially) {
   EXPECT_EQ(a.simulations, b.simulations);
 }
 
+parallel::Communicator& world() { return parallel::world_communicator(); }
+
+TEST(EnsembleMpi, MembersOfUnequalCostGiveTheSerialBitsWithEitherHandOut) {
+  Eigen::MatrixXd thetas(11, 2);
+  for (int i = 0; i < 11; ++i) thetas.row(i) << 0.2 * i, std::sin(i);
+  const Toy toy;
+  auto task = [&thetas](Ensemble& e) {
+    return [&e, &thetas](int m, int w, Eigen::Ref<Eigen::VectorXd> row) {
+      // Member 0 is ten times dearer than the others: ranks finish at different times.
+      std::this_thread::sleep_for(std::chrono::milliseconds(m == 0 ? 20 : 2));
+      const Eigen::VectorXd theta = thetas.row(m).transpose();
+      return e.worker_model(w).evaluate(theta, row);
+    };
+  };
+  EnsembleOptions dyn = make(Backend::kThreads, 2);
+  dyn.communicator = &world();
+  EnsembleOptions fixed = dyn;
+  fixed.schedule = parallel::Schedule::kFixed;
+  Ensemble a(toy, dyn), b(toy, fixed), serial(toy, make(Backend::kSerial, 0));
+  EXPECT_EQ(a.ranks(), world().size());
+  const EnsembleResult ra = a.map_rows(11, 3, task(a));
+  const EnsembleResult rb = b.map_rows(11, 3, task(b));
+  const EnsembleResult rs = serial.map_rows(11, 3, task(serial));
+  EXPECT_EQ(0, std::memcmp(ra.Z.data(), rs.Z.data(), sizeof(double) * 33));
+  EXPECT_EQ(0, std::memcmp(rb.Z.data(), rs.Z.data(), sizeof(double) * 33));
+}
+
+TEST(EnsembleMpi, MoreRanksThanMembersAndNoMembersAreFine) {
+  const Toy toy;
+  EnsembleOptions o = make(Backend::kSerial, 0);
+  o.communicator = &world();
+  Ensemble e(toy, o);
+  Eigen::MatrixXd one(1, 2);
+  one << 0.5, 0.25;
+  const EnsembleResult r = e.evaluate(one);
+  ASSERT_EQ(r.Z.rows(), 1);
+  EXPECT_EQ(r.Z(0, 0), std::exp(0.3 * 0.5));
+  EXPECT_EQ(e.evaluate(Eigen::MatrixXd(0, 2)).Z.rows(), 0);
+}
+
+TEST(EnsembleMpi, AProgressFailureOnOneRankIsRethrownOnEveryRank) {
+  const Toy toy;
+  EnsembleOptions o = make(Backend::kSerial, 0);
+  o.communicator = &world();
+  o.schedule = parallel::Schedule::kFixed;  // every rank gets members, so the throwing one runs
+  const int rank = world().rank();
+  o.progress = [rank](int, int) {
+    if (rank == world().size() - 1) throw std::runtime_error("progress broke");
+  };
+  Ensemble e(toy, o);
+  Eigen::MatrixXd thetas(7, 2);
+  for (int i = 0; i < 7; ++i) thetas.row(i) << 0.1 * i, 0.2;
+  EXPECT_THROW(e.evaluate(thetas), std::runtime_error);
+  // The ranks are still in step: a later collective works.
+  EXPECT_EQ(world().all_reduce_max(rank), world().size() - 1);
+}
+
+TEST(EnsembleMpi, CommunicatorCollectivesAgree) {
+  parallel::Communicator& c = world();
+  EXPECT_EQ(c.broadcast(c.rank() == 0 ? 42 : -1, 0), 42);
+  EXPECT_EQ(c.broadcast(c.rank() == 0 ? std::string("from root") : std::string(), 0), "from root");
+  std::vector<double> v(3, c.rank() == 0 ? 1.5 : 0.0);
+  c.broadcast(std::span<double>(v), 0);
+  EXPECT_EQ(v, std::vector<double>(3, 1.5));
+  const std::string mine(static_cast<size_t>(c.rank()), 'x');
+  const auto all = c.all_gather(std::as_bytes(std::span<const char>(mine.data(), mine.size())));
+  ASSERT_EQ(static_cast<int>(all.size()), c.size());
+  for (int r = 0; r < c.size(); ++r) EXPECT_EQ(static_cast<int>(all[static_cast<size_t>(r)].size()), r);
+  EXPECT_EQ(c.all_reduce_max(c.rank() == 1 ? 7 : 0), 7);
+  c.barrier();
+}
+
 }  // namespace
 }  // namespace sigmaheart::estimation
 
@@ -87,7 +161,7 @@ int main(int argc, char** argv) {
   sigmaheart::estimation::MpiSession session(&argc, &argv);
   ::testing::InitGoogleTest(&argc, argv);
   // Only rank 0 prints the report; every rank runs every test (the calls are collective).
-  if (sigmaheart::estimation::mpi_rank() != 0) {
+  if (session.world().rank() != 0) {
     auto& listeners = ::testing::UnitTest::GetInstance()->listeners();
     delete listeners.Release(listeners.default_result_printer());
   }

@@ -2,8 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <cstring>
+#include <thread>
 #include <limits>
 #include <memory>
 #include <stdexcept>
@@ -152,7 +154,7 @@ TEST(Ensemble, MpiBackendWithoutAnActiveSessionRunsAsOneRank) {
     EXPECT_FALSE(opt.validate().empty());
     return;
   }
-  EXPECT_EQ(mpi_size(), 1);
+  EXPECT_EQ(parallel::world_communicator().size(), 1);
   Ensemble mpi(proto, opt);
   Ensemble serial(proto, options(Backend::kSerial));
   const Eigen::MatrixXd thetas = design(12);
@@ -164,6 +166,59 @@ TEST(Ensemble, OptionsValidationNamesTheProblem) {
             std::string::npos);
   EXPECT_EQ(parse_backend("mpi"), Backend::kMpi);
   EXPECT_FALSE(parse_backend("gpu").has_value());
+}
+
+// Members whose cost differs (member 0 sleeps longest): the dynamic hand-out gives the same bits
+// as the fixed split and as a serial run, whatever member finishes first.
+TEST(Ensemble, DynamicAndFixedHandOutGiveTheSerialResultsBitForBit) {
+  const ToyModel proto;
+  const Eigen::MatrixXd thetas = design(17);
+  EnsembleOptions dyn = options(Backend::kThreads, 3);
+  EnsembleOptions fixed = dyn;
+  fixed.schedule = parallel::Schedule::kFixed;
+  Ensemble a(proto, dyn), b(proto, fixed), serial(proto, options(Backend::kSerial));
+  auto slow_task = [](Ensemble& e) {
+    return [&e](int m, int w, Eigen::Ref<Eigen::VectorXd> row) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(m == 0 ? 20 : 1));
+      Eigen::VectorXd theta(2);
+      theta << 0.3 + 0.1 * m, std::cos(m);
+      return e.worker_model(w).evaluate(theta, row);
+    };
+  };
+  const EnsembleResult ra = a.map_rows(17, 3, slow_task(a));
+  const EnsembleResult rb = b.map_rows(17, 3, slow_task(b));
+  const EnsembleResult rs = serial.map_rows(17, 3, slow_task(serial));
+  EXPECT_TRUE(bitwise_equal(ra.Z, rs.Z));
+  EXPECT_TRUE(bitwise_equal(rb.Z, rs.Z));
+  EXPECT_TRUE(bitwise_equal(a.evaluate(thetas).Z, serial.evaluate(thetas).Z));
+  EXPECT_EQ(a.evaluate(thetas).failed_members(), (std::vector<int>{3, 7, 9}));
+}
+
+TEST(Ensemble, ACommunicatorOfOneRankKeepsMembersLocal) {
+  const ToyModel proto;
+  parallel::SerialCommunicator one;
+  EnsembleOptions opt = options(Backend::kThreads, 2);
+  opt.communicator = &one;
+  int calls = 0;
+  opt.progress = [&](int done, int total) {
+    ++calls;
+    EXPECT_LE(done, total);
+    EXPECT_EQ(total, 12);
+  };
+  Ensemble e(proto, opt);
+  EXPECT_EQ(e.ranks(), 1);
+  EXPECT_EQ(e.rank(), 0);
+  Ensemble serial(proto, options(Backend::kSerial));
+  const Eigen::MatrixXd thetas = design(12);
+  EXPECT_TRUE(bitwise_equal(e.evaluate(thetas).Z, serial.evaluate(thetas).Z));
+  EXPECT_EQ(calls, 12);
+}
+
+TEST(Ensemble, SchedulesParseFromTheirNames) {
+  EXPECT_EQ(parallel::parse_schedule("dynamic"), parallel::Schedule::kDynamic);
+  EXPECT_EQ(parallel::parse_schedule("fixed"), parallel::Schedule::kFixed);
+  EXPECT_FALSE(parallel::parse_schedule("guided").has_value());
+  EXPECT_STREQ(parallel::to_string(parallel::Schedule::kFixed), "fixed");
 }
 
 }  // namespace
