@@ -157,11 +157,9 @@ TEST(RegistryCommands, SobolStudyOfTheTestModelSeesTheSymmetryOfItsSegments) {
   EXPECT_NEAR(sum, 1.0, 0.1);  // nearly additive over these ranges
 }
 
-// Personalisation of the two segments with the ROUKF from their regional volumes. DISABLED_: the
-// personalize command on this branch still finds segments by parameter names (sigma0_XX) and the
-// period by the name "period", so this would pass without testing the tags (it does pass so,
-// with --gtest_also_run_disabled_tests: 3.49e4 +- 1.2e3 Pa and 5.98e4 +- 2.6e3 Pa). Enable it
-// once personalize finds segments by tags (family "contractility", "regional_volume" channels).
+// Personalisation of the two segments with the ROUKF from their regional volumes: the personalize
+// command finds the segments by their tags (family "contractility", "regional_volume" channels)
+// and the period by the tag "period", with no change to app/ or estimation/ for this model.
 TEST(RegistryCommands, PersonalizeFindsTheSegmentsOfTheTestModelByTags) {
   const auto dir = scratch_dir();
   const auto truth = write_file(dir / "truth.yaml", std::string("name: truth\n") + kModel);
