@@ -7,8 +7,10 @@
 #include "model/units.h"
 #include "observers/observation_builder.h"
 
+#include <cctype>
 #include <charconv>
 #include <cmath>
+#include <limits>
 #include <fstream>
 #include <istream>
 #include <ostream>
@@ -45,6 +47,61 @@ std::vector<Field> split(const std::string& line) {
 
 bool blank(const std::string& s) { return s.find_first_not_of(" \t") == std::string::npos; }
 
+std::string lower(std::string s) {
+  for (auto& ch : s) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  return s;
+}
+
+// A missing value in a data column: an empty cell, NaN in any case, NA or N/A.
+bool missing_value(const std::string& text) {
+  const std::string l = lower(text);
+  return l.empty() || l == "nan" || l == "+nan" || l == "-nan" || l == "na" || l == "n/a";
+}
+
+// "t", "time" in any case: the time column.
+bool time_name(const std::string& name) {
+  const std::string l = lower(name);
+  return l == "t" || l == "time";
+}
+
+// A header field split into name and unit: "V_lv [mL]", "V_lv (mL)", or for time only a unit
+// suffix "t_ms", "time_s". unit_offset: position of the unit's first character in the field.
+struct HeaderField {
+  std::string name, unit;
+  size_t unit_offset = 0;
+  bool has_unit = false;
+};
+
+HeaderField split_header(const std::string& text) {
+  HeaderField h;
+  for (const auto& [open_ch, close_ch] : {std::pair{'[', ']'}, std::pair{'(', ')'}}) {
+    const auto open = text.find(open_ch);
+    if (open == std::string::npos || text.back() != close_ch) continue;
+    if (text.find(close_ch) != text.size() - 1) continue;  // one pair, closing the field
+    h.name = text.substr(0, open);
+    while (!h.name.empty() && (h.name.back() == ' ' || h.name.back() == '\t')) h.name.pop_back();
+    h.unit = text.substr(open + 1, text.size() - open - 2);
+    size_t lead = 0;
+    while (lead < h.unit.size() && h.unit[lead] == ' ') ++lead;
+    h.unit.erase(0, lead);
+    while (!h.unit.empty() && h.unit.back() == ' ') h.unit.pop_back();
+    h.unit_offset = open + 1 + lead;
+    h.has_unit = true;
+    return h;
+  }
+  h.name = text;
+  if (const auto us = text.rfind('_'); us != std::string::npos && time_name(text.substr(0, us))) {
+    const std::string unit = lower(text.substr(us + 1));
+    if (unit == "s" || unit == "ms") {
+      h.name = text.substr(0, us);
+      h.unit = unit;
+      h.unit_offset = us + 1;
+      h.has_unit = true;
+    }
+  }
+  return h;
+}
+
 // The SI unit a column named `name` must measure, or "" when any known unit will do.
 std::string required_dimension(const std::string& name) {
   if (name.rfind("V_", 0) == 0) return "m^3";
@@ -55,18 +112,21 @@ std::string required_dimension(const std::string& name) {
 
 }  // namespace
 
-ObservationCurves parse_observation_csv(std::istream& in, const std::string& source) {
+ObservationCurves parse_observation_csv(std::istream& in, const std::string& source,
+                                        const ColumnMapping& rename) {
   auto fail = [&](int line, int column, const std::string& msg) -> InputError {
     return InputError(source, line, column, msg);
   };
 
   struct Column {
     std::string name, unit;
+    std::string written;  // the header field as written, for messages
     double factor = 1.0;
     std::string si_unit;
   };
   std::vector<Column> columns;
   std::vector<std::vector<double>> rows;
+  std::vector<int> row_lines;
   int header_line = 0;
   int last_line = 0;
   int line_no = 0;
@@ -85,27 +145,25 @@ ObservationCurves parse_observation_csv(std::istream& in, const std::string& sou
       for (size_t f = 0; f < fields.size(); ++f) {
         const auto& [text, col] = fields[f];
         const std::string where = "header field " + std::to_string(f + 1);
-        const auto open = text.find('[');
-        const auto close = text.find(']');
-        if (open == std::string::npos || close == std::string::npos || close < open ||
-            close + 1 != text.size()) {
-          if (f == 0) {
+        const HeaderField h = split_header(text);
+        if (!h.has_unit) {
+          if (f == 0 && !time_name(h.name)) {
             throw fail(line_no, col, "missing header: expected 'name [unit]' columns such as " +
                                          std::string(kHeaderExample) + ", got '" + text + "'");
           }
-          throw fail(line_no, col, "expected 'name [unit]' in " + where + ", got '" + text + "'");
+          throw fail(line_no, col, "expected 'name [unit]' or 'name (unit)' in " + where +
+                                       ", got '" + text + "'");
         }
         Column c;
-        c.name = text.substr(0, open);
-        while (!c.name.empty() && (c.name.back() == ' ' || c.name.back() == '\t')) c.name.pop_back();
-        c.unit = text.substr(open + 1, close - open - 1);
-        while (!c.unit.empty() && c.unit.front() == ' ') c.unit.erase(0, 1);
-        while (!c.unit.empty() && c.unit.back() == ' ') c.unit.pop_back();
-        const int unit_col = col + static_cast<int>(open) + 1;
+        c.written = text;
+        c.name = h.name;
+        c.unit = h.unit;
+        const int unit_col = col + static_cast<int>(h.unit_offset);
         if (c.name.empty() || c.name.find_first_of(" \t") != std::string::npos) {
-          throw fail(line_no, col, "expected a column name without spaces before '[' in " + where +
-                                       ", got '" + c.name + "'");
+          throw fail(line_no, col, "expected a column name without spaces before the unit in " +
+                                       where + ", got '" + c.name + "'");
         }
+        if (const auto it = rename.find(c.name); it != rename.end()) c.name = it->second;
         const auto conv = model::units::to_si(c.unit);
         if (!conv) {
           throw fail(line_no, unit_col,
@@ -114,16 +172,20 @@ ObservationCurves parse_observation_csv(std::istream& in, const std::string& sou
         c.factor = conv->factor;
         c.si_unit = conv->si_unit;
         if (f == 0) {
-          if (c.name != "time" || c.si_unit != "s") {
-            throw fail(line_no, col, "expected the first column to be 'time [ms]' or 'time [s]', got '" +
-                                         text + "'");
+          if (!time_name(c.name) || c.si_unit != "s") {
+            throw fail(line_no, col, "expected the first column to be the time: 'time [ms]' or 'time [s]' "
+                                     "(also 't', any case, units in brackets or parentheses), got '" + text + "'");
           }
+          c.name = "time";
         } else {
           const std::string dim = required_dimension(c.name);
           if (!dim.empty() && dim != c.si_unit) {
             throw fail(line_no, unit_col,
                        "column '" + c.name + "' expects a unit of " + dim + " (" +
                            (dim == "m^3" ? "mL, L, m^3" : "mmHg, kPa, Pa") + "), got '" + c.unit + "'");
+          }
+          if (time_name(c.name)) {
+            throw fail(line_no, col, "column '" + c.name + "': only the first column is the time");
           }
           for (size_t g = 0; g < columns.size(); ++g) {
             if (columns[g].name == c.name) {
@@ -138,6 +200,16 @@ ObservationCurves parse_observation_csv(std::istream& in, const std::string& sou
         throw fail(line_no, 1, "expected at least one data column after 'time', e.g. " +
                                    std::string(kHeaderExample));
       }
+      for (const auto& [from, to] : rename) {
+        bool found = false;
+        for (size_t f = 0; f < fields.size(); ++f) {
+          found = found || split_header(fields[f].text).name == from;
+        }
+        if (!found) {
+          throw fail(line_no, 1, "column mapping '" + from + "' -> '" + to +
+                                     "': the header has no column '" + from + "'");
+        }
+      }
       continue;
     }
 
@@ -150,9 +222,17 @@ ObservationCurves parse_observation_csv(std::istream& in, const std::string& sou
     std::vector<double> row(columns.size());
     for (size_t f = 0; f < fields.size(); ++f) {
       const auto& [text, col] = fields[f];
-      const std::string what = "field " + std::to_string(f + 1) + " ('" + columns[f].name + " [" +
-                               columns[f].unit + "]')";
-      if (text.empty()) throw fail(line_no, col, what + ": expected a number, got an empty field");
+      const std::string what = "field " + std::to_string(f + 1) + " ('" + columns[f].written + "')";
+      if (missing_value(text)) {
+        if (f == 0) {
+          throw fail(line_no, col, what + ": expected a time, got " +
+                                       (text.empty() ? std::string("an empty field")
+                                                     : "'" + text + "'") +
+                                       " (only data cells may be missing)");
+        }
+        row[f] = std::numeric_limits<double>::quiet_NaN();  // a missing value, kept as NaN
+        continue;
+      }
       const char* b = text.data();
       const char* e = text.data() + text.size();
       if (*b == '+') ++b;
@@ -174,6 +254,7 @@ ObservationCurves parse_observation_csv(std::istream& in, const std::string& sou
       throw fail(line_no, fields[0].column, s.str());
     }
     rows.push_back(std::move(row));
+    row_lines.push_back(line_no);
   }
   if (in.bad()) throw fail(0, 0, "read error");
   if (columns.empty()) {
@@ -187,6 +268,7 @@ ObservationCurves parse_observation_csv(std::istream& in, const std::string& sou
 
   ObservationCurves out;
   out.time_unit = columns[0].unit;
+  out.lines = std::move(row_lines);
   const auto n = static_cast<Eigen::Index>(rows.size());
   const auto m = static_cast<Eigen::Index>(columns.size()) - 1;
   out.trajectory.times.resize(n);
@@ -194,7 +276,9 @@ ObservationCurves parse_observation_csv(std::istream& in, const std::string& sou
   for (Eigen::Index k = 0; k < n; ++k) {
     out.trajectory.times(k) = rows[static_cast<size_t>(k)][0];
     for (Eigen::Index c = 0; c < m; ++c) {
-      out.trajectory.values(k, c) = rows[static_cast<size_t>(k)][static_cast<size_t>(c) + 1];
+      const double v = rows[static_cast<size_t>(k)][static_cast<size_t>(c) + 1];
+      out.trajectory.values(k, c) = v;
+      if (std::isnan(v)) ++out.missing;
     }
   }
   for (size_t c = 1; c < columns.size(); ++c) {
@@ -205,10 +289,11 @@ ObservationCurves parse_observation_csv(std::istream& in, const std::string& sou
   return out;
 }
 
-ObservationCurves read_observation_csv(const std::filesystem::path& path) {
+ObservationCurves read_observation_csv(const std::filesystem::path& path,
+                                       const ColumnMapping& rename) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path.string(), 0, 0, "cannot open the observation file");
-  return parse_observation_csv(in, path.string());
+  return parse_observation_csv(in, path.string(), rename);
 }
 
 void write_observation_csv(const std::filesystem::path& path, const model::Trajectory& trajectory,
