@@ -86,6 +86,10 @@ void parse_file_observations(const Config& config, const ConfigNode& obs,
     const std::string align =
         obs.has("align") ? obs["align"].as_choice({"ecg", "end-diastole"}) : std::string("ecg");
     mc.alignment_channel = align == "ecg" ? std::string{} : std::string("V_lv");
+    if (const auto period = config.simulator.parameters.index("period")) {
+      io::check_frames_in_one_beat(curves, config.simulator.parameters[*period].nominal,
+                                   path.string(), align == "ecg");
+    }
     if (mc.channels.empty()) obs["curves"].fail("expected at least one channel name");
     observers::CurveObservations co;
     try {

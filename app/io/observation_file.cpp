@@ -12,6 +12,7 @@
 #include <cmath>
 #include <limits>
 #include <fstream>
+#include <algorithm>
 #include <istream>
 #include <ostream>
 #include <sstream>
@@ -294,6 +295,29 @@ ObservationCurves read_observation_csv(const std::filesystem::path& path,
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path.string(), 0, 0, "cannot open the observation file");
   return parse_observation_csv(in, path.string(), rename);
+}
+
+void check_frames_in_one_beat(const ObservationCurves& curves, double period,
+                              const std::string& source, bool times_after_trigger) {
+  const Eigen::VectorXd& t = curves.trajectory.times;
+  if (t.size() == 0 || !(period > 0.0)) return;
+  const double origin = times_after_trigger ? std::min(0.0, t(0)) : t(0);
+  double spacing = std::numeric_limits<double>::infinity();
+  for (Eigen::Index k = 1; k < t.size(); ++k) spacing = std::min(spacing, t(k) - t(k - 1));
+  const double last_allowed = origin + period + 0.5 * (std::isfinite(spacing) ? spacing : 0.0);
+  const double unit = model::units::to_si(curves.time_unit) ? model::units::to_si(curves.time_unit)->factor : 1.0;
+  for (Eigen::Index k = 0; k < t.size(); ++k) {
+    if (t(k) <= last_allowed) continue;
+    const auto i = static_cast<size_t>(k);
+    std::ostringstream s;
+    s << "frame " << k << " at t = " << format_exact(t(k) / unit) << " " << curves.time_unit
+      << " lies beyond one beat: the simulated period is " << format_exact(period / unit) << " "
+      << curves.time_unit << " (parameter 'period'), and the frames must lie within one beat ("
+      << (times_after_trigger ? "times after the ECG trigger, from " : "from the first frame, ")
+      << format_exact(origin / unit) << " " << curves.time_unit
+      << "); give one beat of frames, or set the period to the measured one";
+    throw InputError(source, i < curves.lines.size() ? curves.lines[i] : 0, 1, s.str());
+  }
 }
 
 void write_observation_csv(const std::filesystem::path& path, const model::Trajectory& trajectory,

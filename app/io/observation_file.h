@@ -54,6 +54,15 @@ ObservationCurves read_observation_csv(const std::filesystem::path& path,
 ObservationCurves parse_observation_csv(std::istream& in, const std::string& source,
                                         const ColumnMapping& rename = {});
 
+// The frames must fit in one simulated beat of `period` [s] (the model's parameter 'period'): a
+// frame later than origin + period, origin = min(0, first time) when the times are times after
+// the ECG trigger (times_after_trigger), else the first time, is an input error naming `source`,
+// the frame's line and the period; the simulated beat would otherwise be read there wrapped into
+// its first beat. Half the smallest frame spacing is tolerated (a closed beat's repeated first
+// frame). Throws app::InputError; curves.lines must hold one line per frame.
+void check_frames_in_one_beat(const ObservationCurves& curves, double period,
+                              const std::string& source, bool times_after_trigger);
+
 // Writes the same format atomically (temporary file, then rename). trajectory is SI (or in the
 // units its channels name); time_unit is "ms" or "s"; display_units (one per channel, empty = the
 // channel's unit) choose the columns' units. comment lines (without '#') go first. Values are

@@ -247,6 +247,32 @@ TEST(ObservationFile, RejectsBadVariantsWithLineAndColumn) {
   }
 }
 
+// Frames later than one simulated beat would be compared with the simulated beat wrapped into its
+// first period: refused with the file, the frame's line and the period.
+TEST(ObservationFile, FramesBeyondOneBeatAreAnInputErrorNamingLineAndPeriod) {
+  std::string text = "# two beats\ntime [ms], V_lv [mL]\n";
+  for (int k = 0; k < 12; ++k) text += std::to_string(k * 170) + ", " + std::to_string(100 + k) + "\n";
+  const auto c = parse(text);  // frames 0 ... 1870 ms
+  try {
+    check_frames_in_one_beat(c, 0.85, "cohort/p07.csv", true);
+    FAIL() << "no exception";
+  } catch (const InputError& e) {
+    // Frame 5 (850 ms) is the closed beat's end, within half a frame; frame 6 (1020 ms) is not.
+    EXPECT_EQ(e.line(), 9);
+    EXPECT_NE(std::string(e.what()).find("cohort/p07.csv:9:1: frame 6 at t = 1020 ms lies beyond "
+                                         "one beat: the simulated period is 850 ms"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_NO_THROW(check_frames_in_one_beat(c, 2.0, "cohort/p07.csv", true));
+  // One beat of frames starting mid-record is fine when aligned on end-diastole, not after the
+  // trigger (times from 0).
+  const auto late = parse("t [s], V_lv [mL]\n0.5, 1\n0.8, 2\n1.1, 3\n");
+  EXPECT_NO_THROW(check_frames_in_one_beat(late, 0.85, "x.csv", false));
+  EXPECT_THROW(check_frames_in_one_beat(late, 0.85, "x.csv", true), InputError);
+  EXPECT_NO_THROW(check_frames_in_one_beat(parse(kGood), 0.85, "x.csv", true));
+}
+
 TEST(ObservationFile, ReportsAFileThatCannotBeOpened) {
   try {
     read_observation_csv("/nonexistent/dir/p01.csv");
