@@ -297,6 +297,58 @@ ObservationCurves read_observation_csv(const std::filesystem::path& path,
   return parse_observation_csv(in, path.string(), rename);
 }
 
+PresentFrames drop_missing_frames(const ObservationCurves& curves,
+                                  const std::vector<std::string>& channels,
+                                  const std::string& source) {
+  const model::Trajectory& t = curves.trajectory;
+  const Eigen::Index n = t.times.size();
+  PresentFrames out;
+  out.period = n > 1 ? (t.times(n - 1) - t.times(0)) * static_cast<double>(n) /
+                           static_cast<double>(n - 1)
+                     : 0.0;
+  std::vector<Eigen::Index> cols;
+  for (size_t c = 0; c < t.channels.size(); ++c) {
+    const bool used = channels.empty() ||
+                      std::find(channels.begin(), channels.end(), t.channels[c].name) != channels.end();
+    if (used) cols.push_back(static_cast<Eigen::Index>(c));
+  }
+  std::vector<Eigen::Index> keep;
+  for (Eigen::Index k = 0; k < n; ++k) {
+    bool present = true;
+    for (const auto c : cols) present = present && !std::isnan(t.values(k, c));
+    const int line = static_cast<size_t>(k) < curves.lines.size() ? curves.lines[static_cast<size_t>(k)] : 0;
+    if (present) {
+      keep.push_back(k);
+    } else {
+      out.dropped.push_back(line);
+    }
+  }
+  if (static_cast<int>(keep.size()) < kMinFrames) {
+    throw InputError(source, 0, 0,
+                     std::to_string(keep.size()) + " frames have every value needed (" +
+                         std::to_string(out.dropped.size()) + " have a missing one): expected at least " +
+                         std::to_string(kMinFrames));
+  }
+  out.curves.time_unit = curves.time_unit;
+  out.curves.display_units = curves.display_units;
+  out.curves.trajectory.channels = t.channels;
+  const auto m = static_cast<Eigen::Index>(keep.size());
+  out.curves.trajectory.times.resize(m);
+  out.curves.trajectory.values.resize(m, t.values.cols());
+  for (Eigen::Index i = 0; i < m; ++i) {
+    const Eigen::Index k = keep[static_cast<size_t>(i)];
+    out.curves.trajectory.times(i) = t.times(k);
+    out.curves.trajectory.values.row(i) = t.values.row(k);
+    if (static_cast<size_t>(k) < curves.lines.size()) {
+      out.curves.lines.push_back(curves.lines[static_cast<size_t>(k)]);
+    }
+    for (Eigen::Index c = 0; c < t.values.cols(); ++c) {
+      if (std::isnan(t.values(k, c))) ++out.curves.missing;  // in channels not used
+    }
+  }
+  return out;
+}
+
 void check_frames_in_one_beat(const ObservationCurves& curves, double period,
                               const std::string& source, bool times_after_trigger) {
   const Eigen::VectorXd& t = curves.trajectory.times;

@@ -17,9 +17,8 @@
 // rows are needed. Every error is an app::InputError "file:line:column: ..." saying what was
 // expected.
 //
-// Missing values downstream (observers/observation_builder.cpp): global indices and curves built
-// from a channel with a NaN frame are refused there (ObservationSet::validate: "observation
-// 'V_lv@f07' is not finite"), an input error; they are not yet dropped frame by frame.
+// Missing values downstream: the observers refuse NaN samples (observers/beat.cpp: "a sample
+// value is NaN or infinite"); drop_missing_frames() skips those frames first.
 #pragma once
 
 #include "model/simulator.h"
@@ -53,6 +52,20 @@ ObservationCurves read_observation_csv(const std::filesystem::path& path,
 // Same from a stream; `source` names it in messages.
 ObservationCurves parse_observation_csv(std::istream& in, const std::string& source,
                                         const ColumnMapping& rename = {});
+
+// Missing frames skipped: the curves without the frames where one of `channels` (all channels when
+// empty) is missing, and the period of the full record (span + mean frame spacing, as
+// observers::measured_frames() infers it), which the reduced record, no longer evenly spaced,
+// must be read with (BeatOptions::period). Throws app::InputError naming `source` when fewer than
+// kMinFrames frames remain.
+struct PresentFrames {
+  ObservationCurves curves;   // NaN left only in channels not asked for
+  double period = 0.0;        // [s]
+  std::vector<int> dropped;   // lines of the skipped frames
+};
+PresentFrames drop_missing_frames(const ObservationCurves& curves,
+                                  const std::vector<std::string>& channels,
+                                  const std::string& source);
 
 // The frames must fit in one simulated beat of `period` [s] (the model's parameter 'period'): a
 // frame later than origin + period, origin = min(0, first time) when the times are times after

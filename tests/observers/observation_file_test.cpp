@@ -186,6 +186,33 @@ TEST(ObservationFile, MissingValuesAreKeptAsNaN) {
   EXPECT_EQ(parse(kGood).missing, 0);
 }
 
+// Missing frames are skipped: only rows where a used channel is missing go, and the period stays
+// the full record's (the reduced record is no longer evenly spaced).
+TEST(ObservationFile, DropsFramesWithAMissingValueAndKeepsTheFullRecordsPeriod) {
+  const auto c = parse(
+      "time [ms], V_lv [mL], P_lv [mmHg]\n"
+      "0, 140, 10\n"
+      "100, , 90\n"        // line 3: V_lv missing
+      "200, 80, 115\n"
+      "300, 70, NA\n"      // line 5: P_lv missing
+      "400, 90, 20\n"
+      "500, 120, 8\n");
+  const auto both = drop_missing_frames(c, {"V_lv", "P_lv"}, "p.csv");
+  EXPECT_EQ(both.dropped, (std::vector<int>{3, 5}));
+  ASSERT_EQ(both.curves.trajectory.samples(), 4);
+  EXPECT_EQ(both.curves.missing, 0);
+  EXPECT_EQ(both.curves.lines, (std::vector<int>{2, 4, 6, 7}));
+  EXPECT_NEAR(both.curves.trajectory.times(1), 0.2, 1e-15);
+  EXPECT_NEAR(both.curves.trajectory.values(3, 0), 120e-6, 1e-18);
+  EXPECT_NEAR(both.period, 0.6, 1e-15);  // 6 frames 100 ms apart
+  const auto volume = drop_missing_frames(c, {"V_lv"}, "p.csv");
+  EXPECT_EQ(volume.dropped, (std::vector<int>{3}));
+  EXPECT_EQ(volume.curves.missing, 1);  // the P_lv cell of line 5, in a channel not asked for
+  EXPECT_EQ(drop_missing_frames(c, {}, "p.csv").dropped, (std::vector<int>{3, 5}));
+  const auto sparse = parse("t [s], V_lv [mL]\n0, 1\n0.1, nan\n0.2, 2\n0.3, NaN\n");
+  EXPECT_THROW(drop_missing_frames(sparse, {"V_lv"}, "p.csv"), InputError);
+}
+
 // The config's column mapping (file column -> channel): applied before the unit checks.
 TEST(ObservationFile, RenamesColumnsByTheGivenMapping) {
   std::istringstream in("Zeit [ms], LVV (mL), LVP (mmHg), V_seg07 [mL]\n0, 140, 10, 8\n"
