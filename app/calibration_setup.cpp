@@ -53,6 +53,18 @@ void parse_file_observations(const Config& config, const ConfigNode& obs,
                    "to the config file)");
   }
   io::ObservationCurves curves = io::read_observation_csv(path);
+  // Missing frames (empty or NaN cells) are skipped; the others keep the full record's period.
+  observers::BeatOptions measured_beat = observers::measured_frames();
+  if (curves.missing > 0) {
+    std::vector<std::string> used;  // every channel when indices are computed from the curves
+    if (!obs.has("indices") && obs.has("curves")) {
+      used = obs["curves"].as<std::vector<std::string>>();
+      used.push_back("V_lv");  // end-diastole alignment
+    }
+    io::PresentFrames present = io::drop_missing_frames(curves, used, path.string());
+    measured_beat.period = present.period;
+    curves = std::move(present.curves);
+  }
   out.observation_file = path;
   out.measured = curves.trajectory;
   out.measured_display_units = curves.display_units;
@@ -73,7 +85,7 @@ void parse_file_observations(const Config& config, const ConfigNode& obs,
     }
     try {
       sets.push_back(observers::observations_from_indices(*out.measured, gi, noise,
-                                                          curves.display_units));
+                                                          curves.display_units, measured_beat));
     } catch (const std::invalid_argument& e) {
       file_node.fail(std::string("indices of the measured curves: ") + e.what());
     }
@@ -87,6 +99,11 @@ void parse_file_observations(const Config& config, const ConfigNode& obs,
     const std::string align =
         obs.has("align") ? obs["align"].as_choice({"ecg", "end-diastole"}) : std::string("ecg");
     mc.alignment_channel = align == "ecg" ? std::string{} : std::string("V_lv");
+    mc.beat = measured_beat;
+    if (const auto period = config.simulator.parameters.index("period")) {
+      io::check_frames_in_one_beat(curves, config.simulator.parameters[*period].nominal,
+                                   path.string(), align == "ecg");
+    }
     if (mc.channels.empty()) obs["curves"].fail("expected at least one channel name");
     observers::CurveObservations co;
     try {

@@ -15,6 +15,7 @@ std::optional<Conversion> to_si(const std::string& unit) {
       {"ml/s", {kMilliLitre, "m^3/s"}}, {"L/min", {1e-3 / 60.0, "m^3/s"}},
       {"Pa/s", {1.0, "Pa/s"}},        {"kPa/s", {1e3, "Pa/s"}},      {"mmHg/s", {kMmHg, "Pa/s"}},
       {"1/s", {1.0, "1/s"}},          {"Hz", {1.0, "1/s"}},          {"s^-1", {1.0, "1/s"}},
+      {"1/min", {1.0 / 60.0, "1/s"}}, {"bpm", {1.0 / 60.0, "1/s"}},  // heart rate: beats per min
       {"m", {1.0, "m"}},              {"mm", {1e-3, "m"}},           {"cm", {1e-2, "m"}},
       {"1", {1.0, "1"}},              {"-", {1.0, "1"}},             {"", {1.0, "1"}},
       {"%", {0.01, "1"}},

@@ -12,7 +12,7 @@ inline constexpr double kMilliLitre = 1e-6;   // m^3 per mL
 
 // Factor f with value_SI = f * value_in_unit, and the SI unit it converts to. Known units:
 // volume m^3, L, mL (ml, cm^3); pressure Pa, kPa, mmHg; time s, ms; flow m^3/s, mL/s, L/min;
-// pressure rate Pa/s, kPa/s, mmHg/s; rate 1/s, Hz; dimensionless "1", "%", "-".
+// pressure rate Pa/s, kPa/s, mmHg/s; rate 1/s, Hz, 1/min, bpm; dimensionless "1", "%", "-".
 // std::nullopt for an unknown unit string.
 struct Conversion {
   double factor = 1.0;

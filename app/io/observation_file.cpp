@@ -7,9 +7,12 @@
 #include "model/units.h"
 #include "observers/observation_builder.h"
 
+#include <cctype>
 #include <charconv>
 #include <cmath>
+#include <limits>
 #include <fstream>
+#include <algorithm>
 #include <istream>
 #include <ostream>
 #include <sstream>
@@ -45,6 +48,61 @@ std::vector<Field> split(const std::string& line) {
 
 bool blank(const std::string& s) { return s.find_first_not_of(" \t") == std::string::npos; }
 
+std::string lower(std::string s) {
+  for (auto& ch : s) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  return s;
+}
+
+// A missing value in a data column: an empty cell, NaN in any case, NA or N/A.
+bool missing_value(const std::string& text) {
+  const std::string l = lower(text);
+  return l.empty() || l == "nan" || l == "+nan" || l == "-nan" || l == "na" || l == "n/a";
+}
+
+// "t", "time" in any case: the time column.
+bool time_name(const std::string& name) {
+  const std::string l = lower(name);
+  return l == "t" || l == "time";
+}
+
+// A header field split into name and unit: "V_lv [mL]", "V_lv (mL)", or for time only a unit
+// suffix "t_ms", "time_s". unit_offset: position of the unit's first character in the field.
+struct HeaderField {
+  std::string name, unit;
+  size_t unit_offset = 0;
+  bool has_unit = false;
+};
+
+HeaderField split_header(const std::string& text) {
+  HeaderField h;
+  for (const auto& [open_ch, close_ch] : {std::pair{'[', ']'}, std::pair{'(', ')'}}) {
+    const auto open = text.find(open_ch);
+    if (open == std::string::npos || text.back() != close_ch) continue;
+    if (text.find(close_ch) != text.size() - 1) continue;  // one pair, closing the field
+    h.name = text.substr(0, open);
+    while (!h.name.empty() && (h.name.back() == ' ' || h.name.back() == '\t')) h.name.pop_back();
+    h.unit = text.substr(open + 1, text.size() - open - 2);
+    size_t lead = 0;
+    while (lead < h.unit.size() && h.unit[lead] == ' ') ++lead;
+    h.unit.erase(0, lead);
+    while (!h.unit.empty() && h.unit.back() == ' ') h.unit.pop_back();
+    h.unit_offset = open + 1 + lead;
+    h.has_unit = true;
+    return h;
+  }
+  h.name = text;
+  if (const auto us = text.rfind('_'); us != std::string::npos && time_name(text.substr(0, us))) {
+    const std::string unit = lower(text.substr(us + 1));
+    if (unit == "s" || unit == "ms") {
+      h.name = text.substr(0, us);
+      h.unit = unit;
+      h.unit_offset = us + 1;
+      h.has_unit = true;
+    }
+  }
+  return h;
+}
+
 // The SI unit a column named `name` must measure, or "" when any known unit will do.
 std::string required_dimension(const std::string& name) {
   if (name.rfind("V_", 0) == 0) return "m^3";
@@ -55,18 +113,21 @@ std::string required_dimension(const std::string& name) {
 
 }  // namespace
 
-ObservationCurves parse_observation_csv(std::istream& in, const std::string& source) {
+ObservationCurves parse_observation_csv(std::istream& in, const std::string& source,
+                                        const ColumnMapping& rename) {
   auto fail = [&](int line, int column, const std::string& msg) -> InputError {
     return InputError(source, line, column, msg);
   };
 
   struct Column {
     std::string name, unit;
+    std::string written;  // the header field as written, for messages
     double factor = 1.0;
     std::string si_unit;
   };
   std::vector<Column> columns;
   std::vector<std::vector<double>> rows;
+  std::vector<int> row_lines;
   int header_line = 0;
   int last_line = 0;
   int line_no = 0;
@@ -85,27 +146,25 @@ ObservationCurves parse_observation_csv(std::istream& in, const std::string& sou
       for (size_t f = 0; f < fields.size(); ++f) {
         const auto& [text, col] = fields[f];
         const std::string where = "header field " + std::to_string(f + 1);
-        const auto open = text.find('[');
-        const auto close = text.find(']');
-        if (open == std::string::npos || close == std::string::npos || close < open ||
-            close + 1 != text.size()) {
-          if (f == 0) {
+        const HeaderField h = split_header(text);
+        if (!h.has_unit) {
+          if (f == 0 && !time_name(h.name)) {
             throw fail(line_no, col, "missing header: expected 'name [unit]' columns such as " +
                                          std::string(kHeaderExample) + ", got '" + text + "'");
           }
-          throw fail(line_no, col, "expected 'name [unit]' in " + where + ", got '" + text + "'");
+          throw fail(line_no, col, "expected 'name [unit]' or 'name (unit)' in " + where +
+                                       ", got '" + text + "'");
         }
         Column c;
-        c.name = text.substr(0, open);
-        while (!c.name.empty() && (c.name.back() == ' ' || c.name.back() == '\t')) c.name.pop_back();
-        c.unit = text.substr(open + 1, close - open - 1);
-        while (!c.unit.empty() && c.unit.front() == ' ') c.unit.erase(0, 1);
-        while (!c.unit.empty() && c.unit.back() == ' ') c.unit.pop_back();
-        const int unit_col = col + static_cast<int>(open) + 1;
+        c.written = text;
+        c.name = h.name;
+        c.unit = h.unit;
+        const int unit_col = col + static_cast<int>(h.unit_offset);
         if (c.name.empty() || c.name.find_first_of(" \t") != std::string::npos) {
-          throw fail(line_no, col, "expected a column name without spaces before '[' in " + where +
-                                       ", got '" + c.name + "'");
+          throw fail(line_no, col, "expected a column name without spaces before the unit in " +
+                                       where + ", got '" + c.name + "'");
         }
+        if (const auto it = rename.find(c.name); it != rename.end()) c.name = it->second;
         const auto conv = model::units::to_si(c.unit);
         if (!conv) {
           throw fail(line_no, unit_col,
@@ -114,16 +173,20 @@ ObservationCurves parse_observation_csv(std::istream& in, const std::string& sou
         c.factor = conv->factor;
         c.si_unit = conv->si_unit;
         if (f == 0) {
-          if (c.name != "time" || c.si_unit != "s") {
-            throw fail(line_no, col, "expected the first column to be 'time [ms]' or 'time [s]', got '" +
-                                         text + "'");
+          if (!time_name(c.name) || c.si_unit != "s") {
+            throw fail(line_no, col, "expected the first column to be the time: 'time [ms]' or 'time [s]' "
+                                     "(also 't', any case, units in brackets or parentheses), got '" + text + "'");
           }
+          c.name = "time";
         } else {
           const std::string dim = required_dimension(c.name);
           if (!dim.empty() && dim != c.si_unit) {
             throw fail(line_no, unit_col,
                        "column '" + c.name + "' expects a unit of " + dim + " (" +
                            (dim == "m^3" ? "mL, L, m^3" : "mmHg, kPa, Pa") + "), got '" + c.unit + "'");
+          }
+          if (time_name(c.name)) {
+            throw fail(line_no, col, "column '" + c.name + "': only the first column is the time");
           }
           for (size_t g = 0; g < columns.size(); ++g) {
             if (columns[g].name == c.name) {
@@ -138,6 +201,16 @@ ObservationCurves parse_observation_csv(std::istream& in, const std::string& sou
         throw fail(line_no, 1, "expected at least one data column after 'time', e.g. " +
                                    std::string(kHeaderExample));
       }
+      for (const auto& [from, to] : rename) {
+        bool found = false;
+        for (size_t f = 0; f < fields.size(); ++f) {
+          found = found || split_header(fields[f].text).name == from;
+        }
+        if (!found) {
+          throw fail(line_no, 1, "column mapping '" + from + "' -> '" + to +
+                                     "': the header has no column '" + from + "'");
+        }
+      }
       continue;
     }
 
@@ -150,9 +223,17 @@ ObservationCurves parse_observation_csv(std::istream& in, const std::string& sou
     std::vector<double> row(columns.size());
     for (size_t f = 0; f < fields.size(); ++f) {
       const auto& [text, col] = fields[f];
-      const std::string what = "field " + std::to_string(f + 1) + " ('" + columns[f].name + " [" +
-                               columns[f].unit + "]')";
-      if (text.empty()) throw fail(line_no, col, what + ": expected a number, got an empty field");
+      const std::string what = "field " + std::to_string(f + 1) + " ('" + columns[f].written + "')";
+      if (missing_value(text)) {
+        if (f == 0) {
+          throw fail(line_no, col, what + ": expected a time, got " +
+                                       (text.empty() ? std::string("an empty field")
+                                                     : "'" + text + "'") +
+                                       " (only data cells may be missing)");
+        }
+        row[f] = std::numeric_limits<double>::quiet_NaN();  // a missing value, kept as NaN
+        continue;
+      }
       const char* b = text.data();
       const char* e = text.data() + text.size();
       if (*b == '+') ++b;
@@ -174,6 +255,7 @@ ObservationCurves parse_observation_csv(std::istream& in, const std::string& sou
       throw fail(line_no, fields[0].column, s.str());
     }
     rows.push_back(std::move(row));
+    row_lines.push_back(line_no);
   }
   if (in.bad()) throw fail(0, 0, "read error");
   if (columns.empty()) {
@@ -187,6 +269,7 @@ ObservationCurves parse_observation_csv(std::istream& in, const std::string& sou
 
   ObservationCurves out;
   out.time_unit = columns[0].unit;
+  out.lines = std::move(row_lines);
   const auto n = static_cast<Eigen::Index>(rows.size());
   const auto m = static_cast<Eigen::Index>(columns.size()) - 1;
   out.trajectory.times.resize(n);
@@ -194,7 +277,9 @@ ObservationCurves parse_observation_csv(std::istream& in, const std::string& sou
   for (Eigen::Index k = 0; k < n; ++k) {
     out.trajectory.times(k) = rows[static_cast<size_t>(k)][0];
     for (Eigen::Index c = 0; c < m; ++c) {
-      out.trajectory.values(k, c) = rows[static_cast<size_t>(k)][static_cast<size_t>(c) + 1];
+      const double v = rows[static_cast<size_t>(k)][static_cast<size_t>(c) + 1];
+      out.trajectory.values(k, c) = v;
+      if (std::isnan(v)) ++out.missing;
     }
   }
   for (size_t c = 1; c < columns.size(); ++c) {
@@ -205,10 +290,86 @@ ObservationCurves parse_observation_csv(std::istream& in, const std::string& sou
   return out;
 }
 
-ObservationCurves read_observation_csv(const std::filesystem::path& path) {
+ObservationCurves read_observation_csv(const std::filesystem::path& path,
+                                       const ColumnMapping& rename) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path.string(), 0, 0, "cannot open the observation file");
-  return parse_observation_csv(in, path.string());
+  return parse_observation_csv(in, path.string(), rename);
+}
+
+PresentFrames drop_missing_frames(const ObservationCurves& curves,
+                                  const std::vector<std::string>& channels,
+                                  const std::string& source) {
+  const model::Trajectory& t = curves.trajectory;
+  const Eigen::Index n = t.times.size();
+  PresentFrames out;
+  out.period = n > 1 ? (t.times(n - 1) - t.times(0)) * static_cast<double>(n) /
+                           static_cast<double>(n - 1)
+                     : 0.0;
+  std::vector<Eigen::Index> cols;
+  for (size_t c = 0; c < t.channels.size(); ++c) {
+    const bool used = channels.empty() ||
+                      std::find(channels.begin(), channels.end(), t.channels[c].name) != channels.end();
+    if (used) cols.push_back(static_cast<Eigen::Index>(c));
+  }
+  std::vector<Eigen::Index> keep;
+  for (Eigen::Index k = 0; k < n; ++k) {
+    bool present = true;
+    for (const auto c : cols) present = present && !std::isnan(t.values(k, c));
+    const int line = static_cast<size_t>(k) < curves.lines.size() ? curves.lines[static_cast<size_t>(k)] : 0;
+    if (present) {
+      keep.push_back(k);
+    } else {
+      out.dropped.push_back(line);
+    }
+  }
+  if (static_cast<int>(keep.size()) < kMinFrames) {
+    throw InputError(source, 0, 0,
+                     std::to_string(keep.size()) + " frames have every value needed (" +
+                         std::to_string(out.dropped.size()) + " have a missing one): expected at least " +
+                         std::to_string(kMinFrames));
+  }
+  out.curves.time_unit = curves.time_unit;
+  out.curves.display_units = curves.display_units;
+  out.curves.trajectory.channels = t.channels;
+  const auto m = static_cast<Eigen::Index>(keep.size());
+  out.curves.trajectory.times.resize(m);
+  out.curves.trajectory.values.resize(m, t.values.cols());
+  for (Eigen::Index i = 0; i < m; ++i) {
+    const Eigen::Index k = keep[static_cast<size_t>(i)];
+    out.curves.trajectory.times(i) = t.times(k);
+    out.curves.trajectory.values.row(i) = t.values.row(k);
+    if (static_cast<size_t>(k) < curves.lines.size()) {
+      out.curves.lines.push_back(curves.lines[static_cast<size_t>(k)]);
+    }
+    for (Eigen::Index c = 0; c < t.values.cols(); ++c) {
+      if (std::isnan(t.values(k, c))) ++out.curves.missing;  // in channels not used
+    }
+  }
+  return out;
+}
+
+void check_frames_in_one_beat(const ObservationCurves& curves, double period,
+                              const std::string& source, bool times_after_trigger) {
+  const Eigen::VectorXd& t = curves.trajectory.times;
+  if (t.size() == 0 || !(period > 0.0)) return;
+  const double origin = times_after_trigger ? std::min(0.0, t(0)) : t(0);
+  double spacing = std::numeric_limits<double>::infinity();
+  for (Eigen::Index k = 1; k < t.size(); ++k) spacing = std::min(spacing, t(k) - t(k - 1));
+  const double last_allowed = origin + period + 0.5 * (std::isfinite(spacing) ? spacing : 0.0);
+  const double unit = model::units::to_si(curves.time_unit) ? model::units::to_si(curves.time_unit)->factor : 1.0;
+  for (Eigen::Index k = 0; k < t.size(); ++k) {
+    if (t(k) <= last_allowed) continue;
+    const auto i = static_cast<size_t>(k);
+    std::ostringstream s;
+    s << "frame " << k << " at t = " << format_exact(t(k) / unit) << " " << curves.time_unit
+      << " lies beyond one beat: the simulated period is " << format_exact(period / unit) << " "
+      << curves.time_unit << " (parameter 'period'), and the frames must lie within one beat ("
+      << (times_after_trigger ? "times after the ECG trigger, from " : "from the first frame, ")
+      << format_exact(origin / unit) << " " << curves.time_unit
+      << "); give one beat of frames, or set the period to the measured one";
+    throw InputError(source, i < curves.lines.size() ? curves.lines[i] : 0, 1, s.str());
+  }
 }
 
 void write_observation_csv(const std::filesystem::path& path, const model::Trajectory& trajectory,

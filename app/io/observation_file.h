@@ -4,20 +4,28 @@
 //   # patient 07, cine MRI, 30 frames      <- comments start with '#', anywhere on a line
 //   time [ms], V_lv [mL], P_lv [mmHg], V_seg07 [mL]
 //   0,   142.1, 9.8, 8.31
-//   33.3, 140.7, 12.4, 8.27
+//   33.3, 140.7,    , 8.27                 <- a missing value (empty, NaN, NA)
 //   ...
 //
-// Time is `time [ms]` or `time [s]`; V_* columns take a volume unit, P_* columns a pressure unit,
-// other columns any unit model::units knows. Fields are separated by commas, blank lines are
-// skipped. Values are converted to SI on reading; the units written in the header are kept for
-// reports. Times must increase strictly; at least kMinFrames rows are needed. Every error is an
-// app::InputError "file:line:column: ..." saying what was expected.
+// Header: the unit in brackets or parentheses ("V_lv (mL)"); the time column is named `time` or
+// `t` in any case, in s or ms ("t [s]", "Time (ms)", also "t_ms", "time_s"). V_* columns take a
+// volume unit (mL, L, m^3), P_* columns a pressure unit (mmHg, kPa, Pa), other columns any unit
+// model::units knows (a heart rate in bpm or 1/min). Fields are separated by commas, blank lines
+// are skipped. Values are converted to SI on reading; the units written in the header are kept
+// for reports. A data cell that is empty, NaN/nan or NA is a missing value, kept as NaN in the
+// trajectory (a missing time is an error). Times must increase strictly; at least kMinFrames
+// rows are needed. Every error is an app::InputError "file:line:column: ..." saying what was
+// expected.
+//
+// Missing values downstream: the observers refuse NaN samples (observers/beat.cpp: "a sample
+// value is NaN or infinite"); drop_missing_frames() skips those frames first.
 #pragma once
 
 #include "model/simulator.h"
 
 #include <filesystem>
 #include <iosfwd>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -29,13 +37,44 @@ struct ObservationCurves {
   model::Trajectory trajectory;            // times [s]; channels in SI (their unit says which)
   std::string time_unit;                   // as written in the header ("ms" or "s")
   std::vector<std::string> display_units;  // per channel, as written in the header ("mL" ...)
+  std::vector<int> lines;                  // per frame, its line in the file (for messages)
+  int missing = 0;                         // missing values (NaN entries of trajectory.values)
 };
+
+// File column name -> channel name, applied to the header before any check ("LVV" -> "V_lv"),
+// so that a channel's unit is checked under its new name. Every key must name a column.
+using ColumnMapping = std::map<std::string, std::string>;
 
 // Reads a file; throws app::InputError (with the path, line and column) on bad content or when the
 // file cannot be opened.
-ObservationCurves read_observation_csv(const std::filesystem::path& path);
+ObservationCurves read_observation_csv(const std::filesystem::path& path,
+                                       const ColumnMapping& rename = {});
 // Same from a stream; `source` names it in messages.
-ObservationCurves parse_observation_csv(std::istream& in, const std::string& source);
+ObservationCurves parse_observation_csv(std::istream& in, const std::string& source,
+                                        const ColumnMapping& rename = {});
+
+// Missing frames skipped: the curves without the frames where one of `channels` (all channels when
+// empty) is missing, and the period of the full record (span + mean frame spacing, as
+// observers::measured_frames() infers it), which the reduced record, no longer evenly spaced,
+// must be read with (BeatOptions::period). Throws app::InputError naming `source` when fewer than
+// kMinFrames frames remain.
+struct PresentFrames {
+  ObservationCurves curves;   // NaN left only in channels not asked for
+  double period = 0.0;        // [s]
+  std::vector<int> dropped;   // lines of the skipped frames
+};
+PresentFrames drop_missing_frames(const ObservationCurves& curves,
+                                  const std::vector<std::string>& channels,
+                                  const std::string& source);
+
+// The frames must fit in one simulated beat of `period` [s] (the model's parameter 'period'): a
+// frame later than origin + period, origin = min(0, first time) when the times are times after
+// the ECG trigger (times_after_trigger), else the first time, is an input error naming `source`,
+// the frame's line and the period; the simulated beat would otherwise be read there wrapped into
+// its first beat. Half the smallest frame spacing is tolerated (a closed beat's repeated first
+// frame). Throws app::InputError; curves.lines must hold one line per frame.
+void check_frames_in_one_beat(const ObservationCurves& curves, double period,
+                              const std::string& source, bool times_after_trigger);
 
 // Writes the same format atomically (temporary file, then rename). trajectory is SI (or in the
 // units its channels name); time_unit is "ms" or "s"; display_units (one per channel, empty = the

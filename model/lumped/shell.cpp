@@ -75,12 +75,24 @@ double static_radius_offset(const Shell& m, double P) {
 }
 
 double next_time(double t, double t_end, double dt, double period) {
+  const double tiny = 1e-6 * dt;  // grid points closer than this are one point
   const double b = std::floor(t / period + 1e-12);
   const double local = t - b * period;
   double next = b * period + (std::floor(local / dt + 1e-9) + 1.0) * dt;
   const double beat_end = (b + 1.0) * period;
-  if (next > beat_end - 1e-6 * dt) next = beat_end;
-  if (next > t_end - 1e-6 * dt) next = t_end;
+  if (next > beat_end - tiny) next = beat_end;
+  if (next > t_end - tiny) next = t_end;
+  if (next - t < tiny && t_end - t >= tiny) {
+    // Far into a run (t ~ 1e4 s, beat ~ 2e4 at dt = 50 ms) t carries rounding errors larger than
+    // the 1e-12 and 1e-9 margins above: t = k T may be taken for the end of beat k - 1, and the
+    // point found is t itself (a loop that never advances) or a rounding error after it. Round t
+    // to the grid point it stands for and step from there. Earlier runs never reach this branch.
+    const double b2 = std::floor((t + tiny) / period);
+    const double local2 = std::max(t - b2 * period, 0.0);
+    next = b2 * period + (std::floor(local2 / dt + 1e-6) + 1.0) * dt;
+    if (next > (b2 + 1.0) * period - tiny) next = (b2 + 1.0) * period;
+    if (next > t_end - tiny) next = t_end;
+  }
   return next;
 }
 
@@ -158,8 +170,12 @@ Status check_theta(const ParameterSpace& space, const SphereOptions& numerics,
   if (APD >= period) {
     return Status::Error(StatusCode::kOutOfBounds, "APD must be shorter than the period");
   }
-  if (numerics.dt > period) {
-    return Status::Error(StatusCode::kInvalidArgument, "dt is longer than the heart period");
+  if (numerics.dt > period / SphereOptions::kMinStepsPerBeat) {
+    std::ostringstream s;
+    s << "dt = " << numerics.dt << " s must be <= period / " << SphereOptions::kMinStepsPerBeat
+      << " = " << period / SphereOptions::kMinStepsPerBeat << " s (period " << period
+      << " s): fewer steps per beat cannot resolve contraction and the valve events";
+    return Status::Error(StatusCode::kInvalidArgument, s.str());
   }
   return Status::Ok();
 }
@@ -196,7 +212,13 @@ RunResult run_periodic(const Shell& m, const SphereOptions& o, std::vector<Chann
     values.row(rows++) = sample(state).transpose();
     while (state.time < t_end) {
       const double t1 = next_time(state.time, t_end, o.dt, T);
-      const Status st = step_to(state, t1, &result.info.newton_iterations, &result.info.step_cuts);
+      const double before = state.time;
+      Status st = step_to(state, t1, &result.info.newton_iterations, &result.info.step_cuts);
+      if (st.ok() && !(state.time > before)) {  // never loop without advancing
+        std::ostringstream s;
+        s << "beat " << beat + 1 << ": no progress at t = " << before << " s (dt = " << o.dt << " s)";
+        st = Status::Error(StatusCode::kInvalidArgument, s.str());
+      }
       if (!st.ok()) {
         result.status = st;
         result.info.beats = beat + 1;
@@ -206,6 +228,10 @@ RunResult run_periodic(const Shell& m, const SphereOptions& o, std::vector<Chann
       }
       ++step;
       if (step % o.output_every == 0 || state.time >= t_end) {
+        if (rows == times.size()) {  // more steps than ceil(T / dt) (rounding): grow, never overflow
+          times.conservativeResize(2 * rows);
+          values.conservativeResize(2 * rows, Eigen::NoChange);
+        }
         times(rows) = (state.time >= t_end) ? T : state.time - t0;
         values.row(rows++) = sample(state).transpose();
       }

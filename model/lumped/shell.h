@@ -145,6 +145,14 @@ Status step_with_cuts(State& state, const Shell& m, double dt, double t_end, Ste
   double t = state.time;
   while (t < t_end) {
     const double t1 = next_time(t, t_end, dt, m.period);
+    if (!(t1 > t)) {  // dt below the resolution of t: never loop without advancing
+      state.x.head(nu) = x;
+      state.x(nu) = last_open;
+      state.time = t;
+      std::ostringstream s;
+      s << "time step " << dt << " s is below the resolution of t = " << t << " s";
+      return Status::Error(StatusCode::kInvalidArgument, s.str());
+    }
     Vec xn = x;
     bool done = false;
     for (int cut = 0; cut <= kMaxCuts && !done; ++cut) {

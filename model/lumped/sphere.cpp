@@ -196,10 +196,21 @@ int newton_step(const Model& m, const Vec& xo, double t0, double t1, const Spher
 // ---------------------------------------------------------------------------------------------
 std::string SphereOptions::validate() const {
   std::ostringstream s;
+  // Messages start with the field name (app/ points at that key of the config).
   if (!(dt > 0.0 && dt <= 0.05)) s << "dt = " << dt << " s must lie in (0, 0.05]";
+  else if (dt < kMinDt)
+    s << "dt = " << dt << " s must be >= " << kMinDt << " s (one beat of 3 s would keep "
+      << static_cast<long long>(3.0 / dt) << " samples)";
   else if (min_beats < 1) s << "min_beats = " << min_beats << " must be >= 1";
+  else if (min_beats > kMaxBeats) s << "min_beats = " << min_beats << " must be <= " << kMaxBeats;
   else if (max_beats < min_beats) s << "max_beats = " << max_beats << " must be >= min_beats";
-  else if (!(periodic_tolerance > 0.0)) s << "periodic_tolerance must be > 0";
+  else if (max_beats > kMaxBeats)
+    s << "max_beats = " << max_beats << " must lie in [min_beats, " << kMaxBeats
+      << "] (a beat that has not settled after " << kMaxBeats << " beats never will)";
+  else if (!(periodic_tolerance >= kMinPeriodicTolerance && periodic_tolerance < 1.0))
+    s << "periodic_tolerance = " << periodic_tolerance << " must lie in [" << kMinPeriodicTolerance
+      << ", 1): the beat-to-beat change of states solved to newton_tolerance and rounded to "
+         "double stalls at ~1e-14 to 1e-12, so a smaller tolerance is never met";
   else if (output_every < 1) s << "output_every = " << output_every << " must be >= 1";
   else if (!(newton_tolerance > 0.0 && newton_tolerance < 1e-2))
     s << "newton_tolerance = " << newton_tolerance << " must lie in (0, 1e-2)";

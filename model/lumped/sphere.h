@@ -11,6 +11,16 @@ namespace sigmaheart::model::lumped {
 
 // Numerics of a lumped run (not estimated; set in the config's `numerics:` section).
 struct SphereOptions {
+  // Limits validate() enforces. kMaxBeats bounds the run time and keeps t = beats * period small
+  // enough for the time grid's rounding margins; periodicity is measured on states solved to
+  // newton_tolerance, and the beat-to-beat change of the healthy beat stalls near 2e-14, so a
+  // periodic_tolerance below kMinPeriodicTolerance would only spend max_beats; kMinDt bounds the
+  // samples kept per beat. Checked with the period (check_theta): dt <= period / kMinStepsPerBeat.
+  static constexpr int kMaxBeats = 10000;
+  static constexpr double kMinPeriodicTolerance = 1e-12;
+  static constexpr double kMinDt = 1e-5;  // [s]
+  static constexpr int kMinStepsPerBeat = 20;
+
   double dt = 1e-3;                  // time step [s]
   int min_beats = 3;                 // beats always integrated before testing periodicity
   int max_beats = 40;                // give up (kNotPeriodic) after this many beats

@@ -15,6 +15,12 @@ TEST(Units, ConvertsClinicalUnitsToSi) {
   EXPECT_NEAR(convert(5.0, "L/min", "mL/s"), 83.3333333, 1e-6);
 }
 
+TEST(Units, ReadsAHeartRateInBeatsPerMinute) {
+  EXPECT_DOUBLE_EQ(convert(72.0, "bpm", "1/s"), 1.2);
+  EXPECT_DOUBLE_EQ(convert(90.0, "1/min", "Hz"), 1.5);
+  EXPECT_FALSE(compatible("bpm", "s"));
+}
+
 TEST(Units, RefusesUnknownOrIncompatibleUnits) {
   EXPECT_THROW(convert(1.0, "furlong", "m"), std::invalid_argument);
   EXPECT_THROW(convert(1.0, "mL", "mmHg"), std::invalid_argument);

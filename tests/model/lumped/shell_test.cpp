@@ -30,6 +30,59 @@ TEST(Shell, TimeGridStepsByDtAndLandsExactlyOnEveryBeatEnd) {
   EXPECT_DOUBLE_EQ(next_time(0.1005, 0.101, 1e-3, T), 0.101);
 }
 
+// Far into a run t = k T carries rounding errors larger than the grid's margins; the grid used to
+// return t itself there (dt = 50 ms, beat 19279: the periodic loop never advanced and overflowed
+// its row buffer). Every step must advance by about dt, and no step may be a rounding error long.
+TEST(Shell, TimeGridAdvancesByAboutDtFarIntoARun) {
+  const double T = 0.85;
+  for (const double dt : {0.05, 1e-3, 1e-5}) {
+    for (const int beat : {19279, 9999, 123457}) {
+      const double t_end = (beat + 1) * T;
+      double t = beat * T;
+      for (int k = 0; k < 50 && t < t_end; ++k) {
+        const double next = next_time(t, t_end, dt, T);
+        ASSERT_GT(next - t, 0.5 * dt) << "dt " << dt << ", beat " << beat << ", t = " << t;
+        ASSERT_LE(next - t, dt * (1 + 1e-6)) << "dt " << dt << ", beat " << beat;
+        t = next;
+      }
+    }
+  }
+  // A whole beat at 50 ms from beat 19279 takes the 17 steps of every beat.
+  double t = 19279 * T;
+  int steps = 0;
+  while (t < 19280 * T && steps < 100) {
+    t = next_time(t, 19280 * T, 0.05, T);
+    ++steps;
+  }
+  EXPECT_EQ(steps, 17);
+}
+
+// The periodic loop on its own, past validate()'s limits (a stepper that only moves the clock):
+// 20000 beats at dt = 50 ms used to stall at beat 19279 and write past its row buffer.
+TEST(Shell, PeriodicLoopAdvancesAndStaysInItsBuffersPastTheLimitsOfTheOptions) {
+  const Shell m = healthy();
+  SphereOptions o;
+  o.dt = 0.05;
+  o.min_beats = 20000;
+  o.max_beats = 20000;
+  State initial;
+  initial.x = Eigen::VectorXd::Zero(6);
+  fill_relaxed_state(m, initial.x);
+  long long calls = 0;
+  const auto step_to = [&](State& s, double t1, int*, int*) {
+    ++calls;
+    s.time = t1;
+    return Status::Ok();
+  };
+  const auto sample = [](const State& s) { return Eigen::VectorXd::Constant(1, s.time); };
+  const RunResult r = run_periodic(m, o, {{"t", "s", "clock"}}, initial, step_to, sample);
+  ASSERT_TRUE(r.status.ok()) << r.status.message;
+  EXPECT_EQ(r.info.beats, 20000);
+  EXPECT_EQ(calls, 20000LL * 17);  // 0.85 s / 50 ms = 17 steps in every beat
+  EXPECT_EQ(r.trajectory.samples(), 18);
+  EXPECT_DOUBLE_EQ(r.trajectory.times(17), m.period);
+}
+
 TEST(Shell, PassiveStressDerivativeMatchesCentralDifferences) {
   const Shell m = healthy();
   for (double C : {0.8, 1.0, 1.3, 1.7, 2.2}) {

@@ -325,5 +325,55 @@ TEST(SphereOptions, ValidateNamesTheBadField) {
   EXPECT_EQ(r.status.code, StatusCode::kInvalidArgument);
 }
 
+// The limits of SphereOptions: each rejection names the field and its allowed range, and is found
+// by validate() without integrating a beat (the config layer turns it into an input error).
+TEST(SphereOptions, ValidateRejectsLimitsThatWouldCrashOrHangARun) {
+  struct Case {
+    const char* field;
+    SphereOptions options;
+    const char* range;
+  };
+  auto with = [](auto set) {
+    SphereOptions o;
+    set(o);
+    return o;
+  };
+  const std::vector<Case> cases = {
+      {"max_beats", with([](SphereOptions& o) { o.max_beats = 100000000; }), "10000]"},
+      {"min_beats", with([](SphereOptions& o) { o.min_beats = 20000; o.max_beats = 20000; }),
+       "<= 10000"},
+      {"periodic_tolerance", with([](SphereOptions& o) { o.periodic_tolerance = 1e-15; }),
+       "[1e-12, 1)"},
+      {"periodic_tolerance", with([](SphereOptions& o) { o.periodic_tolerance = 2.0; }), "[1e-12, 1)"},
+      {"dt", with([](SphereOptions& o) { o.dt = 1e-7; }), ">= 1e-05 s"},
+      {"dt", with([](SphereOptions& o) { o.dt = 0.5; }), "(0, 0.05]"},
+  };
+  for (const auto& c : cases) {
+    const std::string msg = c.options.validate();
+    EXPECT_EQ(msg.rfind(c.field, 0), 0u) << msg;
+    EXPECT_NE(msg.find(c.range), std::string::npos) << msg;
+  }
+  SphereOptions edge;
+  edge.max_beats = SphereOptions::kMaxBeats;
+  edge.periodic_tolerance = SphereOptions::kMinPeriodicTolerance;
+  edge.dt = SphereOptions::kMinDt;
+  EXPECT_EQ(edge.validate(), "");
+}
+
+// dt = 50 ms passes validate() but gives 17 steps in the 0.85 s beat: refused before integrating.
+TEST(SphereOptions, TimeStepLongerThanATwentiethOfThePeriodIsRefusedBeforeIntegrating) {
+  SphereOptions o;
+  o.dt = 0.05;
+  o.max_beats = 10000;
+  ASSERT_EQ(o.validate(), "");
+  LumpedSphere sim(o);
+  const RunResult r = sim.run(sim.parameters().nominal());
+  EXPECT_EQ(r.status.code, StatusCode::kInvalidArgument);
+  EXPECT_EQ(r.info.beats, 0);
+  EXPECT_NE(r.status.message.find("dt = 0.05 s must be <= period / 20 = 0.0425 s"),
+            std::string::npos)
+      << r.status.message;
+}
+
 }  // namespace
 }  // namespace sigmaheart::model::lumped
