@@ -10,6 +10,7 @@ namespace sigmaheart::app {
 const char* to_string(ValueSource source) {
   switch (source) {
     case ValueSource::kDefault: return "default";
+    case ValueSource::kPreset: return "preset";
     case ValueSource::kConfig: return "config";
     case ValueSource::kOverride: return "--set";
   }
@@ -99,7 +100,7 @@ std::string expand_override_key(const std::string& key) {
 
 SimulatorSection parse_simulator_section(const ConfigNode& node,
                                          const model::ModelRegistry& models) {
-  node.check_keys({"model", "numerics", "parameters"});
+  node.check_keys({"model", "preset", "numerics", "parameters"});
   SimulatorSection s;
   const ConfigNode model_node = node.require_child("model");
   s.model = model_node.as_choice(models.names());
@@ -109,6 +110,18 @@ SimulatorSection parse_simulator_section(const ConfigNode& node,
   s.build = setup->configure(ConfigOptionReader(node["numerics"]));
   s.parameters = s.build.parameters();
   s.sources.assign(static_cast<size_t>(s.parameters.size()), ValueSource::kDefault);
+
+  // A preset's values over the defaults, then the config's own parameters over both.
+  if (node.has("preset")) {
+    const ConfigNode preset_node = node["preset"];
+    if (setup->presets.empty()) preset_node.fail("model " + s.model + " has no presets");
+    const model::Preset* preset = setup->find_preset(preset_node.as_choice(setup->preset_names()));
+    for (const auto& [name, value] : preset->values) {
+      const int i = s.parameters.index_or_throw(name);
+      s.parameters.set_nominal(name, value);
+      s.sources[static_cast<size_t>(i)] = ValueSource::kPreset;
+    }
+  }
 
   const ConfigNode params = node["parameters"];
   params.check_keys(s.parameters.names(), "parameter", "for model " + s.model);

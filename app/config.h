@@ -9,6 +9,7 @@
 //   seed: 42                                 # optional
 //   simulator:
 //     model: lumped-sphere
+//     preset: heart-failure                  # optional: a named parameter set of the model
 //     numerics: {dt: 1.0e-3, max_beats: 40}
 //     parameters: {sigma0: 1.25e5, P_at0: "8 mmHg"}   # number = value in the parameter's unit
 #pragma once
@@ -28,7 +29,7 @@
 namespace sigmaheart::app {
 
 // Where a parameter's nominal value came from.
-enum class ValueSource { kDefault, kConfig, kOverride };
+enum class ValueSource { kDefault, kPreset, kConfig, kOverride };
 const char* to_string(ValueSource source);
 
 // `simulator:` section.

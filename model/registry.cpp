@@ -77,4 +77,17 @@ const ModelRegistry& builtin_models() {
   return registry;
 }
 
+const Preset* ModelSetup::find_preset(const std::string& preset) const {
+  for (const auto& p : presets) {
+    if (p.name == preset) return &p;
+  }
+  return nullptr;
+}
+
+std::vector<std::string> ModelSetup::preset_names() const {
+  std::vector<std::string> out;
+  for (const auto& p : presets) out.push_back(p.name);
+  return out;
+}
+
 }  // namespace sigmaheart::model

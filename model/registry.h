@@ -124,13 +124,24 @@ class ModelBuild {
 };
 
 // One simulator family as a config names it.
+// A named set of parameter values (SI, by parameter name) applied over a build's defaults, before
+// the config's own `parameters:` (`simulator: {model: lumped-sphere, preset: heart-failure}`).
+struct Preset {
+  std::string name;  // e.g. "heart-failure"
+  std::string doc;   // one line: what it represents and where its values come from
+  std::vector<std::pair<std::string, double>> values;
+};
+
 struct ModelSetup {
   std::string name;  // as written in configs, e.g. "lumped-sphere"
   std::string doc;   // one line for `params` and error messages
   // Parses and validates the `numerics:` section; errors go through the reader.
   std::function<ModelBuild(const OptionReader& numerics)> configure;
+  std::vector<Preset> presets;  // may be empty
 
   ModelBuild configure_defaults() const { return configure(NoOptions{}); }
+  const Preset* find_preset(const std::string& preset) const;  // nullptr when unknown
+  std::vector<std::string> preset_names() const;
 };
 
 // The models known to a run. A value: copy the built-in one and add to it.

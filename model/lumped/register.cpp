@@ -56,6 +56,38 @@ RegionalOptions read_regional_options(const OptionReader& node) {
   return o;
 }
 
+// Presets of the sphere (docs/models.md s.7). "healthy" is the default parameter set (tuned to the
+// normal adult ranges); "heart-failure" is the dilated failing ventricle of configs/heart-failure.yaml
+// (HFrEF: EF ~22 %, EDV ~245 mL, EDP ~17 mmHg): larger thinner sphere, stiffer tissue, 15 % lower
+// contractility, raised filling pressure with a weak atrial kick, +10 % distal resistance.
+std::vector<Preset> sphere_presets() {
+  return {
+      {"healthy", "normal adult LV: the default parameters (EF ~61 %, EDV ~144 mL)", {}},
+      {"heart-failure",
+       "dilated failing LV (HFrEF): EF ~22 %, EDV ~245 mL, EDP ~17 mmHg (configs/heart-failure.yaml)",
+       {{"R0", 3.0e-2}, {"d0", 1.1e-2}, {"c1", 200.0}, {"c2", 300.0}, {"c_exp", 800.0},
+        {"sigma0", 4.5e4}, {"R_d", 1.1e8}, {"P_at0", 2130.0}, {"P_at_kick", 267.0}}},
+  };
+}
+
+// The sphere's presets on a regional build: the sphere's contractility goes to every segment's
+// (found by its tag), every other value to the parameter of the same name.
+std::vector<Preset> regional_presets(const ParameterSpace& regional) {
+  std::vector<Preset> out = sphere_presets();
+  for (Preset& preset : out) {
+    std::vector<std::pair<std::string, double>> values;
+    for (const auto& [name, value] : preset.values) {
+      if (name != "sigma0") {
+        values.emplace_back(name, value);
+        continue;
+      }
+      for (int i : regional.regional("contractility")) values.emplace_back(regional[i].name, value);
+    }
+    preset.values = std::move(values);
+  }
+  return out;
+}
+
 void register_lumped_models(ModelRegistry& registry) {
   registry.add(ModelSetup{
       "lumped-sphere",
@@ -66,7 +98,8 @@ void register_lumped_models(ModelRegistry& registry) {
                           [options](const ParameterSpace& p) -> std::unique_ptr<Simulator> {
                             return std::make_unique<LumpedSphere>(options, p);
                           });
-      }});
+      },
+      sphere_presets()});
   registry.add(ModelSetup{
       "lumped-regional",
       "17 AHA wall patches on the BCS sphere (MultiPatch, Walmsley 2015); regional volumes V_segXX",
@@ -76,7 +109,8 @@ void register_lumped_models(ModelRegistry& registry) {
                           [options](const ParameterSpace& p) -> std::unique_ptr<Simulator> {
                             return std::make_unique<RegionalVentricle>(options, p);
                           });
-      }});
+      },
+      regional_presets(RegionalVentricle::default_parameters())});
 }
 
 }  // namespace sigmaheart::model::lumped

@@ -189,5 +189,34 @@ TEST(Config, ModelsComeFromTheRegistryGiven) {
   EXPECT_EQ(c.simulator.make()->run(c.simulator.parameters.nominal()).trajectory.samples(), 20);
 }
 
+TEST(Config, APresetSetsItsValuesUnderTheConfigsOwnParameters) {
+  // The heart-failure preset equals configs/heart-failure.yaml, which writes every value out.
+  const Config file = load_config(std::string(SIGMAHEART_SOURCE_DIR) + "/configs/heart-failure.yaml");
+  const Config preset = parse_config(
+      "name: hf\nsimulator:\n  model: lumped-sphere\n  preset: heart-failure\n", "hf.yaml");
+  EXPECT_EQ(preset.simulator.parameters.nominal(), file.simulator.parameters.nominal());
+  const int r0 = preset.simulator.parameters.index_or_throw("R0");
+  EXPECT_EQ(preset.simulator.sources[static_cast<size_t>(r0)], ValueSource::kPreset);
+
+  // The config's parameters win over the preset's.
+  const Config both = parse_config(
+      "name: hf\nsimulator:\n  model: lumped-sphere\n  preset: heart-failure\n"
+      "  parameters: {sigma0: 4.0e4}\n", "hf.yaml");
+  EXPECT_EQ(both.simulator.parameters[both.simulator.parameters.index_or_throw("sigma0")].nominal, 4.0e4);
+
+  // On the regional model the preset's contractility goes to every segment (found by its tag).
+  const Config regional = parse_config(
+      "name: hf\nsimulator:\n  model: lumped-regional\n  preset: heart-failure\n", "hf.yaml");
+  const auto& space = regional.simulator.parameters;
+  ASSERT_EQ(space.regional("contractility").size(), 17u);
+  for (int i : space.regional("contractility")) EXPECT_EQ(space[i].nominal, 4.5e4) << space[i].name;
+
+  const std::string e = error_of([] {
+    parse_config("name: x\nsimulator:\n  model: lumped-sphere\n  preset: heart-failur\n", "x.yaml");
+  });
+  EXPECT_NE(e.find("x.yaml:4:11"), std::string::npos) << e;
+  EXPECT_NE(e.find("did you mean 'heart-failure'"), std::string::npos) << e;
+}
+
 }  // namespace
 }  // namespace sigmaheart::app
