@@ -4,11 +4,12 @@
 // Run: build/bench/regional_beat_bench
 #include "model/lumped/regional.h"
 
+#include "beat_bench_support.h"
+
 #include <benchmark/benchmark.h>
 
 namespace {
 
-using sigmaheart::model::State;
 using sigmaheart::model::lumped::ActivationPattern;
 using sigmaheart::model::lumped::RegionalOptions;
 using sigmaheart::model::lumped::RegionalVentricle;
@@ -22,26 +23,7 @@ void BM_RegionalOneBeat(benchmark::State& bench) {
     o.activation = ActivationPattern::kLbbb;
   }
   RegionalVentricle sim(o);
-  const Eigen::VectorXd theta = sim.parameters().nominal();
-  const double period = theta(*sim.parameters().index("period"));
-  State s = sim.initial_state(theta);
-  if (!sim.advance(s, theta, 12 * period).ok()) {
-    bench.SkipWithError("warm-up failed");
-    return;
-  }
-  const State periodic = s;
-  int beats = 0;
-  for (auto _ : bench) {
-    s = periodic;
-    const auto status = sim.advance(s, theta, s.time + period);
-    benchmark::DoNotOptimize(s.x.data());
-    if (!status.ok()) {
-      bench.SkipWithError(status.message.c_str());
-      return;
-    }
-    ++beats;
-  }
-  bench.SetItemsProcessed(beats);
+  if (!sigmaheart::bench::time_one_beat(bench, sim, 12)) return;
   bench.SetLabel(bench.range(0) == 1 ? "1 patch" : "17 AHA patches, LBBB");
 }
 BENCHMARK(BM_RegionalOneBeat)->Arg(17)->Arg(1)->Unit(benchmark::kMillisecond);
@@ -51,15 +33,7 @@ void BM_RegionalRunToPeriodicity(benchmark::State& bench) {
   RegionalOptions o;
   o.activation = ActivationPattern::kLbbb;
   RegionalVentricle sim(o);
-  const Eigen::VectorXd theta = sim.parameters().nominal();
-  int beats = 0;
-  for (auto _ : bench) {
-    const auto r = sim.run(theta);
-    benchmark::DoNotOptimize(r.trajectory.values.data());
-    beats += r.info.beats;
-  }
-  bench.counters["beats_per_run"] =
-      static_cast<double>(beats) / static_cast<double>(bench.iterations());
+  sigmaheart::bench::time_runs(bench, sim);
 }
 BENCHMARK(BM_RegionalRunToPeriodicity)->Unit(benchmark::kMillisecond)->Iterations(2);
 

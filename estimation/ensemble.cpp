@@ -1,5 +1,7 @@
 #include "estimation/ensemble.h"
 
+#include "estimation/enum_names.h"
+
 #include <omp.h>
 
 #include <sstream>
@@ -8,20 +10,13 @@
 
 namespace sigmaheart::estimation {
 
-const char* to_string(Backend backend) {
-  switch (backend) {
-    case Backend::kSerial: return "serial";
-    case Backend::kThreads: return "threads";
-    case Backend::kMpi: return "mpi";
-  }
-  return "unknown";
-}
-
+constexpr std::array<EnumName<Backend>, 4> kBackendNames{{
+    {Backend::kSerial, "serial"}, {Backend::kThreads, "threads"}, {Backend::kMpi, "mpi"},
+    {Backend::kThreads, "openmp"},
+}};
+const char* to_string(Backend backend) { return enum_to_string(kBackendNames, backend); }
 std::optional<Backend> parse_backend(const std::string& text) {
-  if (text == "serial") return Backend::kSerial;
-  if (text == "threads" || text == "openmp") return Backend::kThreads;
-  if (text == "mpi") return Backend::kMpi;
-  return std::nullopt;
+  return enum_from_string(kBackendNames, text);
 }
 
 std::string EnsembleOptions::validate() const {

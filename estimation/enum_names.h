@@ -1,35 +1,13 @@
-// Named enums read from and written as text through one table per enum, so that to_string and
-// parse_* cannot drift apart. The first entry of a value is its canonical name; later entries of
-// the same value are accepted aliases ("impute_mean" for "impute-mean").
+// The enum name tables now live in model/enum_names.h; this header keeps the estimation spelling
+// (estimation::enum_to_string, ...) for its users.
 #pragma once
 
-#include <array>
-#include <cstddef>
-#include <optional>
-#include <string_view>
+#include "model/enum_names.h"
 
 namespace sigmaheart::estimation {
 
-template <class E>
-struct EnumName {
-  E value;
-  const char* name;
-};
-
-template <class E, std::size_t N>
-const char* enum_to_string(const std::array<EnumName<E>, N>& table, E value) {
-  for (const auto& e : table) {
-    if (e.value == value) return e.name;
-  }
-  return "unknown";
-}
-
-template <class E, std::size_t N>
-std::optional<E> enum_from_string(const std::array<EnumName<E>, N>& table, std::string_view text) {
-  for (const auto& e : table) {
-    if (text == e.name) return e.value;
-  }
-  return std::nullopt;
-}
+using model::enum_from_string;
+using model::enum_to_string;
+using model::EnumName;
 
 }  // namespace sigmaheart::estimation

@@ -1,5 +1,7 @@
 #include "estimation/prior.h"
 
+#include "estimation/enum_names.h"
+
 #include <Eigen/Cholesky>
 
 #include <cmath>
@@ -8,42 +10,27 @@
 
 namespace sigmaheart::estimation {
 
-const char* to_string(PriorKind kind) {
-  switch (kind) {
-    case PriorKind::kGaussian: return "gaussian";
-    case PriorKind::kUniform: return "uniform";
-  }
-  return "unknown";
-}
+constexpr std::array<EnumName<PriorKind>, 2> kPriorKindNames{{
+    {PriorKind::kGaussian, "gaussian"}, {PriorKind::kUniform, "uniform"},
+}};
+const char* to_string(PriorKind kind) { return enum_to_string(kPriorKindNames, kind); }
 
-const char* to_string(SamplingSpace space) {
-  switch (space) {
-    case SamplingSpace::kPhysical: return "physical";
-    case SamplingSpace::kEta: return "eta";
-  }
-  return "unknown";
-}
-
+constexpr std::array<EnumName<SamplingSpace>, 4> kSamplingSpaceNames{{
+    {SamplingSpace::kPhysical, "physical"}, {SamplingSpace::kEta, "eta"},
+    {SamplingSpace::kPhysical, "theta"}, {SamplingSpace::kEta, "transformed"},
+}};
+const char* to_string(SamplingSpace space) { return enum_to_string(kSamplingSpaceNames, space); }
 std::optional<SamplingSpace> parse_sampling_space(const std::string& text) {
-  if (text == "physical" || text == "theta") return SamplingSpace::kPhysical;
-  if (text == "eta" || text == "transformed") return SamplingSpace::kEta;
-  return std::nullopt;
+  return enum_from_string(kSamplingSpaceNames, text);
 }
 
-const char* to_string(SpreadKind kind) {
-  switch (kind) {
-    case SpreadKind::kRelative: return "relative";
-    case SpreadKind::kAbsolute: return "absolute";
-    case SpreadKind::kEta: return "eta";
-  }
-  return "unknown";
-}
-
+constexpr std::array<EnumName<SpreadKind>, 3> kSpreadKindNames{{
+    {SpreadKind::kRelative, "relative"}, {SpreadKind::kAbsolute, "absolute"},
+    {SpreadKind::kEta, "eta"},
+}};
+const char* to_string(SpreadKind kind) { return enum_to_string(kSpreadKindNames, kind); }
 std::optional<SpreadKind> parse_spread_kind(const std::string& text) {
-  if (text == "relative") return SpreadKind::kRelative;
-  if (text == "absolute") return SpreadKind::kAbsolute;
-  if (text == "eta") return SpreadKind::kEta;
-  return std::nullopt;
+  return enum_from_string(kSpreadKindNames, text);
 }
 
 PriorParameter PriorParameter::gaussian(std::string name, std::string unit, double theta_mean,

@@ -1,5 +1,7 @@
 #include "estimation/sigma_points.h"
 
+#include "estimation/enum_names.h"
+
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 
@@ -10,22 +12,13 @@
 
 namespace sigmaheart::estimation {
 
-const char* to_string(SigmaRule rule) {
-  switch (rule) {
-    case SigmaRule::kSimplex: return "simplex";
-    case SigmaRule::kCanonical: return "canonical";
-    case SigmaRule::kStar: return "star";
-    case SigmaRule::kScaled: return "scaled";
-  }
-  return "unknown";
-}
-
+constexpr std::array<EnumName<SigmaRule>, 4> kSigmaRuleNames{{
+    {SigmaRule::kSimplex, "simplex"}, {SigmaRule::kCanonical, "canonical"},
+    {SigmaRule::kStar, "star"}, {SigmaRule::kScaled, "scaled"},
+}};
+const char* to_string(SigmaRule rule) { return enum_to_string(kSigmaRuleNames, rule); }
 std::optional<SigmaRule> parse_sigma_rule(const std::string& text) {
-  if (text == "simplex") return SigmaRule::kSimplex;
-  if (text == "canonical") return SigmaRule::kCanonical;
-  if (text == "star") return SigmaRule::kStar;
-  if (text == "scaled") return SigmaRule::kScaled;
-  return std::nullopt;
+  return enum_from_string(kSigmaRuleNames, text);
 }
 
 std::string SigmaOptions::validate(int p) const {

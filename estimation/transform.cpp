@@ -1,25 +1,20 @@
 #include "estimation/transform.h"
 
+#include "estimation/enum_names.h"
+
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
 
 namespace sigmaheart::estimation {
 
-const char* to_string(TransformKind kind) {
-  switch (kind) {
-    case TransformKind::kIdentity: return "identity";
-    case TransformKind::kLog: return "log";
-    case TransformKind::kLogit: return "logit";
-  }
-  return "unknown";
-}
-
+constexpr std::array<EnumName<TransformKind>, 4> kTransformKindNames{{
+    {TransformKind::kIdentity, "identity"}, {TransformKind::kLog, "log"},
+    {TransformKind::kLogit, "logit"}, {TransformKind::kIdentity, "none"},
+}};
+const char* to_string(TransformKind kind) { return enum_to_string(kTransformKindNames, kind); }
 std::optional<TransformKind> parse_transform_kind(const std::string& text) {
-  if (text == "identity" || text == "none") return TransformKind::kIdentity;
-  if (text == "log") return TransformKind::kLog;
-  if (text == "logit") return TransformKind::kLogit;
-  return std::nullopt;
+  return enum_from_string(kTransformKindNames, text);
 }
 
 double Transform::to_theta(double eta) const {

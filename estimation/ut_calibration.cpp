@@ -1,5 +1,7 @@
 #include "estimation/ut_calibration.h"
 
+#include "estimation/enum_names.h"
+
 #include <Eigen/Cholesky>
 #include <spdlog/spdlog.h>
 
@@ -41,54 +43,41 @@ std::string format_theta(const std::vector<std::string>& names, const Eigen::Vec
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
-const char* to_string(UtMode mode) {
-  switch (mode) {
-    case UtMode::kOneShot: return "one-shot";
-    case UtMode::kIterateKeepSpread: return "iterate-keep-spread";
-    case UtMode::kIterateInflate: return "iterate-inflate";
-  }
-  return "unknown";
-}
-
+constexpr std::array<EnumName<UtMode>, 3> kUtModeNames{{
+    {UtMode::kOneShot, "one-shot"}, {UtMode::kIterateKeepSpread, "iterate-keep-spread"},
+    {UtMode::kIterateInflate, "iterate-inflate"},
+}};
+const char* to_string(UtMode mode) { return enum_to_string(kUtModeNames, mode); }
 std::optional<UtMode> parse_ut_mode(const std::string& text) {
-  if (text == "one-shot") return UtMode::kOneShot;
-  if (text == "iterate-keep-spread") return UtMode::kIterateKeepSpread;
-  if (text == "iterate-inflate") return UtMode::kIterateInflate;
-  return std::nullopt;
+  return enum_from_string(kUtModeNames, text);
 }
 
+constexpr std::array<EnumName<UtFailurePolicy>, 2> kUtFailurePolicyNames{{
+    {UtFailurePolicy::kAbort, "abort"}, {UtFailurePolicy::kShrinkAndRetry, "shrink-and-retry"},
+}};
 const char* to_string(UtFailurePolicy policy) {
-  switch (policy) {
-    case UtFailurePolicy::kAbort: return "abort";
-    case UtFailurePolicy::kShrinkAndRetry: return "shrink-and-retry";
-  }
-  return "unknown";
+  return enum_to_string(kUtFailurePolicyNames, policy);
 }
-
 std::optional<UtFailurePolicy> parse_ut_failure_policy(const std::string& text) {
-  if (text == "abort") return UtFailurePolicy::kAbort;
-  if (text == "shrink-and-retry") return UtFailurePolicy::kShrinkAndRetry;
-  return std::nullopt;
+  return enum_from_string(kUtFailurePolicyNames, text);
 }
 
+constexpr std::array<EnumName<UtInnovation>, 3> kUtInnovationNames{{
+    {UtInnovation::kAuto, "auto"}, {UtInnovation::kSigmaMean, "sigma-mean"},
+    {UtInnovation::kCenter, "center"},
+}};
 const char* to_string(UtInnovation innovation) {
-  switch (innovation) {
-    case UtInnovation::kAuto: return "auto";
-    case UtInnovation::kSigmaMean: return "sigma-mean";
-    case UtInnovation::kCenter: return "center";
-  }
-  return "unknown";
+  return enum_to_string(kUtInnovationNames, innovation);
 }
 
+constexpr std::array<EnumName<UtTermination>, 5> kUtTerminationNames{{
+    {UtTermination::kCompleted, "completed"}, {UtTermination::kConverged, "converged"},
+    {UtTermination::kMaxIterations, "max iterations"},
+    {UtTermination::kAbortedFailures, "aborted (failed runs)"},
+    {UtTermination::kNumericalFailure, "numerical failure"},
+}};
 const char* to_string(UtTermination termination) {
-  switch (termination) {
-    case UtTermination::kCompleted: return "completed";
-    case UtTermination::kConverged: return "converged";
-    case UtTermination::kMaxIterations: return "max iterations";
-    case UtTermination::kAbortedFailures: return "aborted (failed runs)";
-    case UtTermination::kNumericalFailure: return "numerical failure";
-  }
-  return "unknown";
+  return enum_to_string(kUtTerminationNames, termination);
 }
 
 std::string UtOptions::validate(int p) const {

@@ -1,5 +1,7 @@
 #include "model/simulator.h"
 
+#include "model/enum_names.h"
+
 #include <algorithm>
 #include <cctype>
 #include <limits>
@@ -9,20 +11,14 @@
 
 namespace sigmaheart::model {
 
-const char* to_string(StatusCode code) {
-  switch (code) {
-    case StatusCode::kOk: return "ok";
-    case StatusCode::kDiverged: return "diverged";
-    case StatusCode::kNonFinite: return "non-finite";
-    case StatusCode::kOutOfBounds: return "out-of-bounds";
-    case StatusCode::kNotPeriodic: return "not-periodic";
-    case StatusCode::kProcessFailed: return "process-failed";
-    case StatusCode::kTimeout: return "timeout";
-    case StatusCode::kBadOutput: return "bad-output";
-    case StatusCode::kInvalidArgument: return "invalid-argument";
-  }
-  return "unknown";
-}
+constexpr std::array<EnumName<StatusCode>, 9> kStatusCodeNames{{
+    {StatusCode::kOk, "ok"}, {StatusCode::kDiverged, "diverged"},
+    {StatusCode::kNonFinite, "non-finite"}, {StatusCode::kOutOfBounds, "out-of-bounds"},
+    {StatusCode::kNotPeriodic, "not-periodic"}, {StatusCode::kProcessFailed, "process-failed"},
+    {StatusCode::kTimeout, "timeout"}, {StatusCode::kBadOutput, "bad-output"},
+    {StatusCode::kInvalidArgument, "invalid-argument"},
+}};
+const char* to_string(StatusCode code) { return enum_to_string(kStatusCodeNames, code); }
 
 ParameterSpace::ParameterSpace(std::vector<Parameter> params) : params_(std::move(params)) {
   for (size_t i = 0; i < params_.size(); ++i) {

@@ -1,5 +1,6 @@
 #include "observers/beat.h"
 
+#include "model/enum_names.h"
 #include "model/units.h"
 
 #include <algorithm>
@@ -55,36 +56,25 @@ Extremum find_extremum(const BeatGrid& grid, const Eigen::Ref<const Eigen::Vecto
 
 }  // namespace
 
+constexpr std::array<model::EnumName<Periodicity>, 4> kPeriodicityNames{{
+    {Periodicity::kAuto, "auto"}, {Periodicity::kClosed, "closed"}, {Periodicity::kOpen, "open"},
+    {Periodicity::kNone, "none"},
+}};
 const char* to_string(Periodicity periodicity) {
-  switch (periodicity) {
-    case Periodicity::kAuto: return "auto";
-    case Periodicity::kClosed: return "closed";
-    case Periodicity::kOpen: return "open";
-    case Periodicity::kNone: return "none";
-  }
-  return "?";
+  return model::enum_to_string(kPeriodicityNames, periodicity, "?");
 }
-
 std::optional<Periodicity> parse_periodicity(const std::string& text) {
-  if (text == "auto") return Periodicity::kAuto;
-  if (text == "closed") return Periodicity::kClosed;
-  if (text == "open") return Periodicity::kOpen;
-  if (text == "none") return Periodicity::kNone;
-  return std::nullopt;
+  return model::enum_from_string(kPeriodicityNames, text);
 }
 
+constexpr std::array<model::EnumName<Interpolation>, 2> kInterpolationNames{{
+    {Interpolation::kLinear, "linear"}, {Interpolation::kCubic, "cubic"},
+}};
 const char* to_string(Interpolation interpolation) {
-  switch (interpolation) {
-    case Interpolation::kLinear: return "linear";
-    case Interpolation::kCubic: return "cubic";
-  }
-  return "?";
+  return model::enum_to_string(kInterpolationNames, interpolation, "?");
 }
-
 std::optional<Interpolation> parse_interpolation(const std::string& text) {
-  if (text == "linear") return Interpolation::kLinear;
-  if (text == "cubic") return Interpolation::kCubic;
-  return std::nullopt;
+  return model::enum_from_string(kInterpolationNames, text);
 }
 
 double crossing_before(const BeatGrid& grid, const Eigen::Ref<const Eigen::VectorXd>& x, int from,

@@ -26,10 +26,8 @@ CompositeObserver::CompositeObserver(std::vector<std::unique_ptr<Observer>> part
 
 model::Status CompositeObserver::observe(const model::Trajectory& trajectory,
                                          Eigen::Ref<Eigen::VectorXd> z) const {
-  if (z.size() != static_cast<Eigen::Index>(outputs_.size())) {
-    return model::Status::Error(model::StatusCode::kInvalidArgument,
-                                "composite observer: z has " + std::to_string(z.size()) +
-                                    " entries, expected " + std::to_string(outputs_.size()));
+  if (auto status = check_z_size("composite observer", z.size(), outputs_.size()); !status.ok()) {
+    return status;
   }
   for (size_t p = 0; p < parts_.size(); ++p) {
     const Eigen::Index size = parts_[p]->size();

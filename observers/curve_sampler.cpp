@@ -82,10 +82,8 @@ std::unique_ptr<Observer> CurveSampler::clone() const {
 
 Status CurveSampler::observe(const model::Trajectory& trajectory,
                              Eigen::Ref<Eigen::VectorXd> z) const {
-  if (z.size() != static_cast<Eigen::Index>(outputs_.size())) {
-    return Status::Error(StatusCode::kInvalidArgument,
-                         "curve sampler: z has " + std::to_string(z.size()) + " entries, expected " +
-                             std::to_string(outputs_.size()));
+  if (auto status = check_z_size("curve sampler", z.size(), outputs_.size()); !status.ok()) {
+    return status;
   }
   const size_t nc = options_.channels.size();
   const bool align = !options_.alignment_channel.empty();

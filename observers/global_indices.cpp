@@ -113,10 +113,8 @@ std::unique_ptr<Observer> GlobalIndices::clone() const {
 
 Status GlobalIndices::observe(const model::Trajectory& trajectory,
                               Eigen::Ref<Eigen::VectorXd> z) const {
-  if (z.size() != static_cast<Eigen::Index>(outputs_.size())) {
-    return Status::Error(StatusCode::kInvalidArgument,
-                         "global indices: z has " + std::to_string(z.size()) + " entries, expected " +
-                             std::to_string(outputs_.size()));
+  if (auto status = check_z_size("global indices", z.size(), outputs_.size()); !status.ok()) {
+    return status;
   }
   Eigen::VectorXd V, P, Par;
   if (auto s = channel_in_si(trajectory, options_.volume_channel, "m^3", V); !s.ok()) return s;

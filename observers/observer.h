@@ -7,6 +7,7 @@
 
 #include <Eigen/Core>
 
+#include <cstddef>
 #include <memory>
 #include <string>
 #include <vector>
@@ -28,6 +29,15 @@ class Observer {
 
   virtual std::unique_ptr<Observer> clone() const = 0;
 };
+
+// The check every observe() starts with: ok when z has `expected` entries, else kInvalidArgument
+// "<who>: z has N entries, expected M".
+inline model::Status check_z_size(const std::string& who, Eigen::Index z_size, size_t expected) {
+  if (z_size == static_cast<Eigen::Index>(expected)) return model::Status::Ok();
+  return model::Status::Error(model::StatusCode::kInvalidArgument,
+                              who + ": z has " + std::to_string(z_size) + " entries, expected " +
+                                  std::to_string(expected));
+}
 
 // Measured values with their noise, in SI, in the order of names. Frame times are those of the
 // curves the values came from (empty for typed-in indices).

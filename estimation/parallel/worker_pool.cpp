@@ -1,5 +1,7 @@
 #include "estimation/parallel/worker_pool.h"
 
+#include "estimation/enum_names.h"
+
 #include <omp.h>
 
 #include <algorithm>
@@ -12,18 +14,12 @@
 
 namespace sigmaheart::estimation::parallel {
 
-const char* to_string(Schedule schedule) {
-  switch (schedule) {
-    case Schedule::kDynamic: return "dynamic";
-    case Schedule::kFixed: return "fixed";
-  }
-  return "unknown";
-}
-
+constexpr std::array<EnumName<Schedule>, 3> kScheduleNames{{
+    {Schedule::kDynamic, "dynamic"}, {Schedule::kFixed, "fixed"}, {Schedule::kFixed, "static"},
+}};
+const char* to_string(Schedule schedule) { return enum_to_string(kScheduleNames, schedule); }
 std::optional<Schedule> parse_schedule(const std::string& text) {
-  if (text == "dynamic") return Schedule::kDynamic;
-  if (text == "fixed" || text == "static") return Schedule::kFixed;
-  return std::nullopt;
+  return enum_from_string(kScheduleNames, text);
 }
 
 namespace {
@@ -47,6 +43,23 @@ model::Status status_from_exception(std::exception_ptr error) {
   } catch (...) {
     return model::Status::Error(model::StatusCode::kInvalidArgument,
                                 "exception: unknown exception type");
+  }
+}
+
+// One member finished (from any thread): counts it and reports to `progress`, keeping the first
+// exception the callback throws (later calls are skipped once one has thrown).
+void count_done(const std::function<void(int done, int total)>& progress, int& done, int members,
+                std::exception_ptr& progress_error) {
+#pragma omp critical(sigmaheart_pool_progress)
+  {
+    ++done;
+    if (progress && !progress_error) {
+      try {
+        progress(done, members);
+      } catch (...) {
+        progress_error = std::current_exception();
+      }
+    }
   }
 }
 
@@ -159,17 +172,7 @@ RowResults Scheduler::map_rows(int members, int width, const RowTask& task) cons
     if (!st.ok()) row.setConstant(kNaN);
     status[k] = std::move(st);
     mine[k] = 1;
-#pragma omp critical(sigmaheart_pool_progress)
-    {
-      ++done;
-      if (options_.progress && !progress_error) {
-        try {
-          options_.progress(done, members);
-        } catch (...) {
-          progress_error = std::current_exception();
-        }
-      }
-    }
+    count_done(options_.progress, done, members, progress_error);
   };
 
   const bool dynamic = options_.schedule == Schedule::kDynamic;
@@ -276,17 +279,7 @@ void Scheduler::for_each_local(int members,
     } catch (...) {
       errors[static_cast<size_t>(m)] = std::current_exception();
     }
-#pragma omp critical(sigmaheart_pool_progress)
-    {
-      ++done;
-      if (options_.progress && !progress_error) {
-        try {
-          options_.progress(done, members);
-        } catch (...) {
-          progress_error = std::current_exception();
-        }
-      }
-    }
+    count_done(options_.progress, done, members, progress_error);
   };
   const int threads = options_.threads;
   if (threads <= 1 || members <= 1) {

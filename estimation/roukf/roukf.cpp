@@ -1,5 +1,6 @@
 #include "estimation/roukf/roukf.h"
 
+#include "estimation/enum_names.h"
 #include "estimation/fit_metrics.h"
 #include "estimation/roukf/steppable_forward_model.h"
 
@@ -14,32 +15,23 @@
 
 namespace sigmaheart::estimation {
 
+constexpr std::array<EnumName<RoukfFailurePolicy>, 3> kRoukfFailurePolicyNames{{
+    {RoukfFailurePolicy::kRetryThenSkip, "retry-then-skip"},
+    {RoukfFailurePolicy::kSkipWithInflation, "skip"}, {RoukfFailurePolicy::kAbort, "abort"},
+}};
 const char* to_string(RoukfFailurePolicy policy) {
-  switch (policy) {
-    case RoukfFailurePolicy::kRetryThenSkip: return "retry-then-skip";
-    case RoukfFailurePolicy::kSkipWithInflation: return "skip";
-    case RoukfFailurePolicy::kAbort: return "abort";
-  }
-  return "unknown";
+  return enum_to_string(kRoukfFailurePolicyNames, policy);
 }
-
 std::optional<RoukfFailurePolicy> parse_roukf_failure_policy(const std::string& text) {
-  if (text == "retry-then-skip") return RoukfFailurePolicy::kRetryThenSkip;
-  if (text == "skip") return RoukfFailurePolicy::kSkipWithInflation;
-  if (text == "abort") return RoukfFailurePolicy::kAbort;
-  return std::nullopt;
+  return enum_from_string(kRoukfFailurePolicyNames, text);
 }
 
-const char* to_string(RoukfTermination t) {
-  switch (t) {
-    case RoukfTermination::kCompleted: return "completed";
-    case RoukfTermination::kMemberFailed: return "member failed";
-    case RoukfTermination::kCancelled: return "cancelled";
-    case RoukfTermination::kInvalidInput: return "invalid input";
-    case RoukfTermination::kNumericalFailure: return "numerical failure";
-  }
-  return "unknown";
-}
+constexpr std::array<EnumName<RoukfTermination>, 5> kRoukfTerminationNames{{
+    {RoukfTermination::kCompleted, "completed"}, {RoukfTermination::kMemberFailed, "member failed"},
+    {RoukfTermination::kCancelled, "cancelled"}, {RoukfTermination::kInvalidInput, "invalid input"},
+    {RoukfTermination::kNumericalFailure, "numerical failure"},
+}};
+const char* to_string(RoukfTermination t) { return enum_to_string(kRoukfTerminationNames, t); }
 
 std::string RoukfData::validate() const {
   std::ostringstream s;

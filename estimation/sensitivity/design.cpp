@@ -12,14 +12,10 @@
 
 namespace sigmaheart::estimation::sensitivity {
 
-namespace {
 constexpr std::array<EnumName<StudyStatus>, 3> kStudyStatusNames{{
-    {StudyStatus::kOk, "ok"},
-    {StudyStatus::kFailedRuns, "failed-runs"},
+    {StudyStatus::kOk, "ok"}, {StudyStatus::kFailedRuns, "failed-runs"},
     {StudyStatus::kFailedNominal, "failed-nominal"},
 }};
-}  // namespace
-
 const char* to_string(StudyStatus status) { return enum_to_string(kStudyStatusNames, status); }
 
 std::string validate_prior(const Prior& prior, const ForwardModel& model) {

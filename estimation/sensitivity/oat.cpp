@@ -17,13 +17,9 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 }
 
-namespace {
 constexpr std::array<EnumName<OatMode>, 2> kOatModeNames{{
-    {OatMode::kRange, "range"},
-    {OatMode::kRelative, "relative"},
+    {OatMode::kRange, "range"}, {OatMode::kRelative, "relative"},
 }};
-}  // namespace
-
 const char* to_string(OatMode mode) { return enum_to_string(kOatModeNames, mode); }
 std::optional<OatMode> parse_oat_mode(const std::string& text) {
   return enum_from_string(kOatModeNames, text);

@@ -57,14 +57,10 @@ Indices estimate_on(const Eigen::MatrixXd& Z, int p, int N, const std::vector<in
 
 }  // namespace
 
-namespace {
 constexpr std::array<EnumName<SobolFailurePolicy>, 3> kFailurePolicyNames{{
-    {SobolFailurePolicy::kStop, "stop"},
-    {SobolFailurePolicy::kImputeMean, "impute-mean"},
+    {SobolFailurePolicy::kStop, "stop"}, {SobolFailurePolicy::kImputeMean, "impute-mean"},
     {SobolFailurePolicy::kImputeMean, "impute_mean"},
 }};
-}  // namespace
-
 const char* to_string(SobolFailurePolicy policy) {
   return enum_to_string(kFailurePolicyNames, policy);
 }

@@ -125,16 +125,11 @@ std::uint32_t apply(const std::array<std::uint32_t, 32>& rows, std::uint32_t x) 
 
 }  // namespace
 
-namespace {
 constexpr std::array<EnumName<Scrambling>, 5> kScramblingNames{{
-    {Scrambling::kNone, "none"},
-    {Scrambling::kLinearMatrixAndShift, "lms"},
-    {Scrambling::kNone, "off"},
-    {Scrambling::kLinearMatrixAndShift, "matousek"},
+    {Scrambling::kNone, "none"}, {Scrambling::kLinearMatrixAndShift, "lms"},
+    {Scrambling::kNone, "off"}, {Scrambling::kLinearMatrixAndShift, "matousek"},
     {Scrambling::kLinearMatrixAndShift, "linear-matrix-shift"},
 }};
-}  // namespace
-
 const char* to_string(Scrambling scrambling) { return enum_to_string(kScramblingNames, scrambling); }
 std::optional<Scrambling> parse_scrambling(const std::string& text) {
   return enum_from_string(kScramblingNames, text);

@@ -179,12 +179,11 @@ SpecificityResult compare_groups(const std::vector<CaseEstimate>& cases,
   return r;
 }
 
+constexpr std::array<EnumName<SpecificityStatus>, 2> kSpecificityStatusNames{{
+    {SpecificityStatus::kOk, "ok"}, {SpecificityStatus::kNoStatistics, "no-statistics"},
+}};
 const char* to_string(SpecificityStatus status) {
-  return enum_to_string(std::array<EnumName<SpecificityStatus>, 2>{{
-                            {SpecificityStatus::kOk, "ok"},
-                            {SpecificityStatus::kNoStatistics, "no-statistics"},
-                        }},
-                        status);
+  return enum_to_string(kSpecificityStatusNames, status);
 }
 
 double CaseCalibration::relative_error_percent(const Eigen::VectorXd& scale) const {

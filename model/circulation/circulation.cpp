@@ -1,5 +1,7 @@
 #include "model/circulation/circulation.h"
 
+#include "model/enum_names.h"
+
 #include <cmath>
 #include <numbers>
 #include <sstream>
@@ -41,15 +43,11 @@ Phase phase(ValveRegime now, ValveRegime last_open) {
   return Phase::kFilling;
 }
 
-const char* to_string(Phase p) {
-  switch (p) {
-    case Phase::kFilling: return "filling";
-    case Phase::kIsovolumicContraction: return "isovolumic contraction";
-    case Phase::kEjection: return "ejection";
-    case Phase::kIsovolumicRelaxation: return "isovolumic relaxation";
-  }
-  return "unknown";
-}
+constexpr std::array<EnumName<Phase>, 4> kPhaseNames{{
+    {Phase::kFilling, "filling"}, {Phase::kIsovolumicContraction, "isovolumic contraction"},
+    {Phase::kEjection, "ejection"}, {Phase::kIsovolumicRelaxation, "isovolumic relaxation"},
+}};
+const char* to_string(Phase p) { return enum_to_string(kPhaseNames, p); }
 
 ValveFlow valve_flow(double P_v, double P_ar, double P_at, const CirculationParameters& c) {
   ValveFlow f;

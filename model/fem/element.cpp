@@ -67,57 +67,51 @@ const std::vector<QuadraturePoint2>& tri_rule(int degree) {
   throw std::invalid_argument("tri_rule: degree above 4 not available");
 }
 
+namespace {
+
+// Lagrange shape functions of order 1 (the V vertices) or 2 (the vertices, then one node per edge
+// in the order of `edges`) on a D-simplex, from the barycentric coordinates L and their
+// derivatives dL[i][d] = dL_i / dxi_d.
+template <int V, int D, int NE>
+void simplex_shape(int order, const double (&L)[V], const double (&dL)[V][D],
+                   const int (&edges)[NE][2], Eigen::VectorXd& N, Eigen::MatrixXd& dN) {
+  if (order == 1) {
+    N.resize(V);
+    dN.resize(V, D);
+    for (int a = 0; a < V; ++a) {
+      N[a] = L[a];
+      for (int d = 0; d < D; ++d) dN(a, d) = dL[a][d];
+    }
+    return;
+  }
+  N.resize(V + NE);
+  dN.resize(V + NE, D);
+  for (int a = 0; a < V; ++a) {
+    N[a] = L[a] * (2 * L[a] - 1);
+    for (int d = 0; d < D; ++d) dN(a, d) = (4 * L[a] - 1) * dL[a][d];
+  }
+  for (int e = 0; e < NE; ++e) {
+    const int i = edges[e][0], j = edges[e][1];
+    N[V + e] = 4 * L[i] * L[j];
+    for (int d = 0; d < D; ++d) dN(V + e, d) = 4 * (dL[i][d] * L[j] + L[i] * dL[j][d]);
+  }
+}
+
+}  // namespace
+
 void tet_shape(int order, const Eigen::Vector3d& xi, Eigen::VectorXd& N, Eigen::MatrixXd& dN) {
   const double L[4] = {1.0 - xi[0] - xi[1] - xi[2], xi[0], xi[1], xi[2]};
   // dL_i / dxi_d
   const double dL[4][3] = {{-1, -1, -1}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
-  if (order == 1) {
-    N.resize(4);
-    dN.resize(4, 3);
-    for (int a = 0; a < 4; ++a) {
-      N[a] = L[a];
-      for (int d = 0; d < 3; ++d) dN(a, d) = dL[a][d];
-    }
-    return;
-  }
-  N.resize(10);
-  dN.resize(10, 3);
-  for (int a = 0; a < 4; ++a) {
-    N[a] = L[a] * (2 * L[a] - 1);
-    for (int d = 0; d < 3; ++d) dN(a, d) = (4 * L[a] - 1) * dL[a][d];
-  }
   const int E[6][2] = {{0, 1}, {1, 2}, {0, 2}, {0, 3}, {1, 3}, {2, 3}};
-  for (int e = 0; e < 6; ++e) {
-    const int i = E[e][0], j = E[e][1];
-    N[4 + e] = 4 * L[i] * L[j];
-    for (int d = 0; d < 3; ++d) dN(4 + e, d) = 4 * (dL[i][d] * L[j] + L[i] * dL[j][d]);
-  }
+  simplex_shape(order, L, dL, E, N, dN);
 }
 
 void tri_shape(int order, const Eigen::Vector2d& xi, Eigen::VectorXd& N, Eigen::MatrixXd& dN) {
   const double L[3] = {1.0 - xi[0] - xi[1], xi[0], xi[1]};
   const double dL[3][2] = {{-1, -1}, {1, 0}, {0, 1}};
-  if (order == 1) {
-    N.resize(3);
-    dN.resize(3, 2);
-    for (int a = 0; a < 3; ++a) {
-      N[a] = L[a];
-      for (int d = 0; d < 2; ++d) dN(a, d) = dL[a][d];
-    }
-    return;
-  }
-  N.resize(6);
-  dN.resize(6, 2);
-  for (int a = 0; a < 3; ++a) {
-    N[a] = L[a] * (2 * L[a] - 1);
-    for (int d = 0; d < 2; ++d) dN(a, d) = (4 * L[a] - 1) * dL[a][d];
-  }
   const int E[3][2] = {{0, 1}, {1, 2}, {2, 0}};
-  for (int e = 0; e < 3; ++e) {
-    const int i = E[e][0], j = E[e][1];
-    N[3 + e] = 4 * L[i] * L[j];
-    for (int d = 0; d < 2; ++d) dN(3 + e, d) = 4 * (dL[i][d] * L[j] + L[i] * dL[j][d]);
-  }
+  simplex_shape(order, L, dL, E, N, dN);
 }
 
 }  // namespace sigmaheart::model::fem

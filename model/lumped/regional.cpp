@@ -18,6 +18,7 @@
 
 #include "model/bcs/active_law.h"
 #include "model/circulation/circulation.h"
+#include "model/enum_names.h"
 
 #include <Eigen/LU>
 
@@ -326,22 +327,15 @@ double wall_path(double z1, double phi1, double z2, double phi2) {
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
+constexpr std::array<EnumName<ActivationPattern>, 4> kActivationPatternNames{{
+    {ActivationPattern::kSynchronous, "synchronous"}, {ActivationPattern::kLbbb, "lbbb"},
+    {ActivationPattern::kPacing, "pacing"}, {ActivationPattern::kExplicit, "explicit"},
+}};
 const char* to_string(ActivationPattern pattern) {
-  switch (pattern) {
-    case ActivationPattern::kSynchronous: return "synchronous";
-    case ActivationPattern::kLbbb: return "lbbb";
-    case ActivationPattern::kPacing: return "pacing";
-    case ActivationPattern::kExplicit: return "explicit";
-  }
-  return "unknown";
+  return enum_to_string(kActivationPatternNames, pattern);
 }
-
 std::optional<ActivationPattern> parse_activation_pattern(const std::string& text) {
-  if (text == "synchronous") return ActivationPattern::kSynchronous;
-  if (text == "lbbb") return ActivationPattern::kLbbb;
-  if (text == "pacing") return ActivationPattern::kPacing;
-  if (text == "explicit") return ActivationPattern::kExplicit;
-  return std::nullopt;
+  return enum_from_string(kActivationPatternNames, text);
 }
 
 int RegionalOptions::patches() const {
