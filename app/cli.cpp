@@ -12,6 +12,7 @@
 
 #include <exception>
 #include <filesystem>
+#include <memory>
 #include <sstream>
 
 namespace sigmaheart::app {
@@ -150,6 +151,52 @@ void add_set_option(CLI::App& sub, std::vector<std::string>& overrides) {
                  "numerics.<key>=value, or a full dotted path; repeatable")
       ->type_name("KEY=VALUE")
       ->allow_extra_args(false);
+}
+
+void add_config_command(CLI::App& app, CommandContext& ctx, const std::string& name, const std::string& about,
+                        int (*run)(const ConfigOptions&, CommandContext&)) {
+  auto opts = std::make_shared<ConfigOptions>();
+  CLI::App* sub = app.add_subcommand(name, about);
+  sub->add_option("config", opts->config, "Config file (YAML)")->required();
+  add_set_option(*sub, opts->overrides);
+  sub->callback([opts, &ctx, run] { ctx.run = [opts, &ctx, run] { return run(*opts, ctx); }; });
+}
+
+void add_study_command(CLI::App& app, CommandContext& ctx, const std::string& name, const std::string& about,
+                       const StudyHelp& help, int (*run)(const StudyOptions&, CommandContext&)) {
+  auto opts = std::make_shared<StudyOptions>();
+  CLI::App* sub = app.add_subcommand(name, about);
+  sub->add_option("config", opts->config, help.config)->required();
+  sub->add_option("-o,--output", opts->output, "Results file (HDF5); default results/<config>-" + name + ".h5");
+  sub->add_option("--summary", opts->summary, help.summary);
+  sub->add_option("--threads", opts->threads, help.threads)->check(CLI::PositiveNumber);
+  add_set_option(*sub, opts->overrides);
+  sub->callback([opts, &ctx, run] { ctx.run = [opts, &ctx, run] { return run(*opts, ctx); }; });
+}
+
+std::filesystem::path study_output(const StudyOptions& o, const std::string& kind) {
+  return !o.output.empty() ? o.output : default_output_path(o.config, kind);
+}
+
+int stopped_early(const CommandContext& ctx, const std::string& message) {
+  if (!ctx.root()) return kExitRuntimeFailure;
+  throw RunFailure(message);
+}
+
+void report_written(CommandContext& ctx, const std::string& report, const std::filesystem::path& output,
+                    const std::filesystem::path& summary,
+                    const std::function<void(const std::filesystem::path&)>& write_summary) {
+  ctx.out << report << "wrote " << output.string() << "\n";
+  if (!summary.empty()) {
+    write_summary(summary);
+    ctx.out << "wrote " << summary.string() << "\n";
+  }
+}
+
+io::Provenance started_provenance() {
+  io::Provenance prov;
+  prov.start_utc = io::utc_now();
+  return prov;
 }
 
 void fill_provenance(io::Provenance& prov, const Config& config, const CommandContext& ctx,

@@ -185,37 +185,36 @@ void ConfigNode::check_keys(const std::vector<std::string>& allowed, const std::
   }
 }
 
+namespace {
+
+// The scalar `node` as T, or a located "<path>: expected <what>, got ..." error.
+template <class T>
+T scalar_as(const ConfigNode& node, const std::string& what) {
+  if (!node.is_scalar()) node.fail(node.path() + ": expected " + what + ", got " + node.describe());
+  try {
+    return node.yaml().as<T>();
+  } catch (const YAML::Exception&) {
+    node.fail(node.path() + ": expected " + what + ", got " + node.describe());
+  }
+}
+
+}  // namespace
+
 template <>
 double ConfigNode::as<double>() const {
-  if (!is_scalar()) fail(path_ + ": expected a number, got " + describe());
-  double v = 0.0;
-  try {
-    v = node_.as<double>();
-  } catch (const YAML::Exception&) {
-    fail(path_ + ": expected a number, got " + describe());
-  }
+  const double v = scalar_as<double>(*this, "a number");
   if (!std::isfinite(v)) fail(path_ + ": expected a finite number, got " + describe());
   return v;
 }
 
 template <>
 int ConfigNode::as<int>() const {
-  if (!is_scalar()) fail(path_ + ": expected an integer, got " + describe());
-  try {
-    return node_.as<int>();
-  } catch (const YAML::Exception&) {
-    fail(path_ + ": expected an integer, got " + describe());
-  }
+  return scalar_as<int>(*this, "an integer");
 }
 
 template <>
 bool ConfigNode::as<bool>() const {
-  if (!is_scalar()) fail(path_ + ": expected true or false, got " + describe());
-  try {
-    return node_.as<bool>();
-  } catch (const YAML::Exception&) {
-    fail(path_ + ": expected true or false, got " + describe());
-  }
+  return scalar_as<bool>(*this, "true or false");
 }
 
 template <>

@@ -21,14 +21,6 @@ namespace sigmaheart::app {
 
 namespace {
 
-struct CalibrateOptions {
-  std::filesystem::path config;
-  std::filesystem::path output;
-  std::filesystem::path summary;
-  int threads = 0;
-  std::vector<std::string> overrides;
-};
-
 // Progress per iteration (and per shrink retry) of the UT.
 std::function<void(const estimation::UtProgress&)> ut_progress(ProgressLine& progress) {
   auto stage = std::make_shared<std::pair<int, int>>(-1, -1);  // iteration, attempt
@@ -46,13 +38,11 @@ std::function<void(const estimation::UtProgress&)> ut_progress(ProgressLine& pro
   };
 }
 
-int run_calibrate(const CalibrateOptions& o, CommandContext& ctx) {
-  io::Provenance prov;
-  prov.start_utc = io::utc_now();
+int run_calibrate(const StudyOptions& o, CommandContext& ctx) {
+  io::Provenance prov = started_provenance();
   const Config config = load_config(o.config, o.overrides, *ctx.models);
   const CalibrationProblem problem = parse_calibration_problem(config);
-  const std::filesystem::path output =
-      !o.output.empty() ? o.output : default_output_path(o.config, "calibrate");
+  const std::filesystem::path output = study_output(o, "calibrate");
 
   auto simulator = config.simulator.make();
   const std::vector<std::string> names = problem.prior.names();
@@ -97,16 +87,12 @@ int run_calibrate(const CalibrateOptions& o, CommandContext& ctx) {
 
     fill_provenance(prov, config, ctx, "calibrate", threads, ranks);
     io::write_calibration_h5(output, results, prov);
-    ctx.out << io::calibration_report(results) << "wrote " << output.string() << "\n";
-    if (!o.summary.empty()) {
-      io::write_calibration_json(o.summary, config.name, results);
-      ctx.out << "wrote " << o.summary.string() << "\n";
-    }
+    report_written(ctx, io::calibration_report(results), output, o.summary,
+                   [&](const std::filesystem::path& p) { io::write_calibration_json(p, config.name, results); });
   }
   if (!summary.ok()) {
-    if (!root) return kExitRuntimeFailure;
-    throw RunFailure("calibration ended early (" + std::string(estimation::to_string(summary.termination)) +
-                     "): " + summary.message + "; what was done is in " + output.string());
+    return stopped_early(ctx, "calibration ended early (" + std::string(estimation::to_string(summary.termination)) +
+                                  "): " + summary.message + "; what was done is in " + output.string());
   }
   return kExitOk;
 }
@@ -115,17 +101,11 @@ int run_calibrate(const CalibrateOptions& o, CommandContext& ctx) {
 
 void register_calibrate(CLI::App& app, CommandContext& ctx) {
   register_calibration_sections();
-  auto opts = std::make_shared<CalibrateOptions>();
-  CLI::App* sub = app.add_subcommand(
-      "calibrate", "Calibrate global parameters from volume/pressure curves (Unscented Transform)");
-  sub->add_option("config", opts->config, "Config file (YAML) with observations:, estimate:, calibration:")
-      ->required();
-  sub->add_option("-o,--output", opts->output, "Results file (HDF5); default results/<config>-calibrate.h5");
-  sub->add_option("--summary", opts->summary, "Also write the estimates and the fit as JSON");
-  sub->add_option("--threads", opts->threads, "Threads for the ensemble (default: all cores)")
-      ->check(CLI::PositiveNumber);
-  add_set_option(*sub, opts->overrides);
-  sub->callback([opts, &ctx] { ctx.run = [opts, &ctx] { return run_calibrate(*opts, ctx); }; });
+  add_study_command(app, ctx, "calibrate",
+                    "Calibrate global parameters from volume/pressure curves (Unscented Transform)",
+                    {"Config file (YAML) with observations:, estimate:, calibration:",
+                     "Also write the estimates and the fit as JSON", "Threads for the ensemble (default: all cores)"},
+                    run_calibrate);
 }
 
 }  // namespace sigmaheart::app

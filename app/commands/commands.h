@@ -55,6 +55,8 @@ void register_benchmark(CLI::App& app, CommandContext& ctx);  // the 3D Land et 
 
 // Adds the repeatable `--set key=value` option (see expand_override_key in config.h).
 void add_set_option(CLI::App& sub, std::vector<std::string>& overrides);
+// A provenance with start_utc set to now (a command's first line, so the time covers its work).
+io::Provenance started_provenance();
 // Fills the provenance every results file carries (ARCHITECTURE.md, "Results files") from the
 // config and the invocation: kind, name, config file and text, overrides, command line, seed,
 // thread and rank counts. start_utc and end_utc stay the command's to set.
@@ -64,6 +66,51 @@ void fill_provenance(io::Provenance& prov, const Config& config, const CommandCo
 // results/<config-stem>-<kind>.h5 (relative to the working directory).
 std::filesystem::path default_output_path(const std::filesystem::path& config,
                                           const std::string& kind);
+
+// The options of the commands that only read a config (params, validate).
+struct ConfigOptions {
+  std::filesystem::path config;
+  std::vector<std::string> overrides;  // "key=value"
+};
+
+// Adds subcommand `name` with the positional config (required) and --set; when it is chosen,
+// ctx.run calls run(options, ctx).
+void add_config_command(CLI::App& app, CommandContext& ctx, const std::string& name, const std::string& about,
+                        int (*run)(const ConfigOptions&, CommandContext&));
+
+// The options the estimation commands (calibrate, personalize, sensitivity, specificity) share.
+struct StudyOptions {
+  std::filesystem::path config;
+  std::filesystem::path output;   // empty: default_output_path(config, <command>)
+  std::filesystem::path summary;  // empty: no JSON summary
+  int threads = 0;                // > 0: overrides the config's thread count
+  std::vector<std::string> overrides;
+};
+
+// The help texts of an estimation command's positional config, --summary and --threads.
+struct StudyHelp {
+  std::string config;
+  std::string summary;
+  std::string threads;
+};
+
+// Adds subcommand `name` with the options of StudyOptions (config, -o/--output, --summary,
+// --threads, --set); when it is chosen, ctx.run calls run(options, ctx).
+void add_study_command(CLI::App& app, CommandContext& ctx, const std::string& name, const std::string& about,
+                       const StudyHelp& help, int (*run)(const StudyOptions&, CommandContext&));
+
+// The results file of an estimation command: o.output, else default_output_path(o.config, kind).
+std::filesystem::path study_output(const StudyOptions& o, const std::string& kind);
+
+// The end of a run whose estimator failed: kExitRuntimeFailure off the root rank (which printed
+// nothing); on the root rank throws RunFailure(message).
+int stopped_early(const CommandContext& ctx, const std::string& message);
+
+// Prints `report` and "wrote <output>"; with a non-empty `summary` path, calls
+// write_summary(summary) and prints "wrote <summary>".
+void report_written(CommandContext& ctx, const std::string& report, const std::filesystem::path& output,
+                    const std::filesystem::path& summary,
+                    const std::function<void(const std::filesystem::path&)>& write_summary);
 
 // `sigmaheart simulate`: one forward run of the configured simulator.
 struct SimulateOptions {

@@ -6,17 +6,11 @@
 #include "app/errors.h"
 
 #include <iomanip>
-#include <memory>
 #include <sstream>
 
 namespace sigmaheart::app {
 
 namespace {
-
-struct ParamsOptions {
-  std::filesystem::path config;
-  std::vector<std::string> overrides;
-};
 
 std::string number(double v) {
   std::ostringstream s;
@@ -24,7 +18,7 @@ std::string number(double v) {
   return s.str();
 }
 
-int run_params(const ParamsOptions& o, CommandContext& ctx) {
+int run_params(const ConfigOptions& o, CommandContext& ctx) {
   const Config config = load_config(o.config, o.overrides, *ctx.models);
   const auto& space = config.simulator.parameters;
   bool tagged = false;
@@ -74,11 +68,7 @@ int run_params(const ParamsOptions& o, CommandContext& ctx) {
 }  // namespace
 
 void register_params(CLI::App& app, CommandContext& ctx) {
-  auto opts = std::make_shared<ParamsOptions>();
-  CLI::App* sub = app.add_subcommand("params", "List the simulator's parameters: unit, value, bounds, doc");
-  sub->add_option("config", opts->config, "Config file (YAML)")->required();
-  add_set_option(*sub, opts->overrides);
-  sub->callback([opts, &ctx] { ctx.run = [opts, &ctx] { return run_params(*opts, ctx); }; });
+  add_config_command(app, ctx, "params", "List the simulator's parameters: unit, value, bounds, doc", run_params);
 }
 
 }  // namespace sigmaheart::app

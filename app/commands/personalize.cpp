@@ -23,14 +23,6 @@ namespace sigmaheart::app {
 
 namespace {
 
-struct PersonalizeOptions {
-  std::filesystem::path config;
-  std::filesystem::path output;
-  std::filesystem::path summary;
-  int threads = 0;
-  std::vector<std::string> overrides;
-};
-
 // Progress per pass over the measured beat.
 std::function<bool(const estimation::RoukfStep&)> roukf_progress(ProgressLine& progress, int passes,
                                                                   int frames) {
@@ -48,13 +40,11 @@ std::function<bool(const estimation::RoukfStep&)> roukf_progress(ProgressLine& p
   };
 }
 
-int run_personalize(const PersonalizeOptions& o, CommandContext& ctx) {
-  io::Provenance prov;
-  prov.start_utc = io::utc_now();
+int run_personalize(const StudyOptions& o, CommandContext& ctx) {
+  io::Provenance prov = started_provenance();
   const Config config = load_config(o.config, o.overrides, *ctx.models);
   PersonalizeProblem problem = parse_personalize(config);
-  const std::filesystem::path output =
-      !o.output.empty() ? o.output : default_output_path(o.config, "personalize");
+  const std::filesystem::path output = study_output(o, "personalize");
 
   std::unique_ptr<model::Simulator> simulator = config.simulator.make();
   const auto* steppable = dynamic_cast<const model::SteppableSimulator*>(simulator.get());
@@ -94,16 +84,12 @@ int run_personalize(const PersonalizeOptions& o, CommandContext& ctx) {
     results.threads = threads;
     fill_provenance(prov, config, ctx, "personalize", threads, 1);
     io::write_roukf_h5(output, results, prov);
-    ctx.out << io::roukf_report(results) << "wrote " << output.string() << "\n";
-    if (!o.summary.empty()) {
-      io::write_roukf_json(o.summary, config.name, results);
-      ctx.out << "wrote " << o.summary.string() << "\n";
-    }
+    report_written(ctx, io::roukf_report(results), output, o.summary,
+                   [&](const std::filesystem::path& p) { io::write_roukf_json(p, config.name, results); });
   }
   if (!summary.ok()) {
-    if (!root) return kExitRuntimeFailure;
-    throw RunFailure("the filter stopped (" + std::string(estimation::to_string(summary.termination)) +
-                     "): " + summary.message + "; the steps done are in " + output.string());
+    return stopped_early(ctx, "the filter stopped (" + std::string(estimation::to_string(summary.termination)) +
+                                  "): " + summary.message + "; the steps done are in " + output.string());
   }
   return kExitOk;
 }
@@ -112,16 +98,11 @@ int run_personalize(const PersonalizeOptions& o, CommandContext& ctx) {
 
 void register_personalize(CLI::App& app, CommandContext& ctx) {
   register_config_section({"personalize", [](const Config& c) { parse_personalize(c); }});
-  auto opts = std::make_shared<PersonalizeOptions>();
-  CLI::App* sub = app.add_subcommand(
-      "personalize", "Estimate per-segment parameters from regional volume curves (ROUKF)");
-  sub->add_option("config", opts->config, "Config file (YAML) with a personalize: section")->required();
-  sub->add_option("-o,--output", opts->output, "Results file (HDF5); default results/<config>-personalize.h5");
-  sub->add_option("--summary", opts->summary, "Also write the final estimates and their std as JSON");
-  sub->add_option("--threads", opts->threads, "Threads for the ensemble (default: the config's, else all cores)")
-      ->check(CLI::PositiveNumber);
-  add_set_option(*sub, opts->overrides);
-  sub->callback([opts, &ctx] { ctx.run = [opts, &ctx] { return run_personalize(*opts, ctx); }; });
+  add_study_command(app, ctx, "personalize", "Estimate per-segment parameters from regional volume curves (ROUKF)",
+                    {"Config file (YAML) with a personalize: section",
+                     "Also write the final estimates and their std as JSON",
+                     "Threads for the ensemble (default: the config's, else all cores)"},
+                    run_personalize);
 }
 
 }  // namespace sigmaheart::app

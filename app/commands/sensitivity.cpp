@@ -25,27 +25,16 @@
 #include <omp.h>
 #include <spdlog/spdlog.h>
 
-#include <memory>
 
 namespace sigmaheart::app {
 
 namespace {
 
-struct SensitivityCommandOptions {
-  std::filesystem::path config;
-  std::filesystem::path output;   // empty: default_output_path(config, "sensitivity")
-  std::filesystem::path summary;  // empty: no JSON summary
-  int threads = 0;                // > 0: overrides sensitivity.ensemble.threads
-  std::vector<std::string> overrides;
-};
-
-int run_sensitivity(const SensitivityCommandOptions& o, CommandContext& ctx) {
-  io::Provenance prov;
-  prov.start_utc = io::utc_now();
+int run_sensitivity(const StudyOptions& o, CommandContext& ctx) {
+  io::Provenance prov = started_provenance();
   const Config config = load_config(o.config, o.overrides, *ctx.models);
   SensitivitySetup setup = parse_sensitivity(config);
-  const std::filesystem::path output =
-      !o.output.empty() ? o.output : default_output_path(o.config, "sensitivity");
+  const std::filesystem::path output = study_output(o, "sensitivity");
   estimation::EnsembleOptions ensemble = setup.ensemble();
   if (o.threads > 0) ensemble.threads = o.threads;
   ensemble.communicator = ctx.comm;  // members spread over the ranks, if several
@@ -80,12 +69,11 @@ int run_sensitivity(const SensitivityCommandOptions& o, CommandContext& ctx) {
     prov.end_utc = io::utc_now();
     io::write_provenance(h5, prov);
     h5.commit();
-    ctx.out << io::sensitivity_report(setup, summary) << "wrote " << output.string() << "\n";
-    if (!o.summary.empty()) {
-      const auto js = io::sensitivity_json(config.name, setup, summary, output.string());
-      io::write_text_file(o.summary, [&](std::ostream& f) { f << js.dump(2) << "\n"; });
-      ctx.out << "wrote " << o.summary.string() << "\n";
-    }
+    report_written(ctx, io::sensitivity_report(setup, summary), output, o.summary,
+                   [&](const std::filesystem::path& p) {
+                     const auto js = io::sensitivity_json(config.name, setup, summary, output.string());
+                     io::write_text_file(p, [&](std::ostream& f) { f << js.dump(2) << "\n"; });
+                   });
   }
   if (!study.ok()) {
     throw RunFailure("sensitivity study '" + config.name + "': " + study.message +
@@ -98,17 +86,11 @@ int run_sensitivity(const SensitivityCommandOptions& o, CommandContext& ctx) {
 
 void register_sensitivity(CLI::App& app, CommandContext& ctx) {
   register_config_section({"sensitivity", [](const Config& c) { parse_sensitivity(c); }});
-  auto opts = std::make_shared<SensitivityCommandOptions>();
-  CLI::App* sub = app.add_subcommand(
-      "sensitivity", "One-at-a-time, Morris or Sobol' study of the model outputs (section sensitivity:)");
-  sub->add_option("config", opts->config, "Config file (YAML) with a sensitivity: section")->required();
-  sub->add_option("-o,--output", opts->output,
-                  "Results file (HDF5); default results/<config>-sensitivity.h5");
-  sub->add_option("--summary", opts->summary, "Also write the indices (clinical units) as JSON");
-  sub->add_option("--threads", opts->threads, "Threads for the design runs (default: the config's, else all cores)")
-      ->check(CLI::PositiveNumber);
-  add_set_option(*sub, opts->overrides);
-  sub->callback([opts, &ctx] { ctx.run = [opts, &ctx] { return run_sensitivity(*opts, ctx); }; });
+  add_study_command(app, ctx, "sensitivity",
+                    "One-at-a-time, Morris or Sobol' study of the model outputs (section sensitivity:)",
+                    {"Config file (YAML) with a sensitivity: section", "Also write the indices (clinical units) as JSON",
+                     "Threads for the design runs (default: the config's, else all cores)"},
+                    run_sensitivity);
 }
 
 }  // namespace sigmaheart::app

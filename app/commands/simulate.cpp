@@ -51,8 +51,7 @@ std::vector<io::Indicator> simulate_indicators(const model::RunResult& result,
 }  // namespace
 
 int run_simulate(const SimulateOptions& o, CommandContext& ctx) {
-  io::Provenance prov;
-  prov.start_utc = io::utc_now();
+  io::Provenance prov = started_provenance();
   const Config config = load_config(o.config, o.overrides, *ctx.models);
   const std::filesystem::path output = !o.output.empty() ? o.output : default_output_path(o.config, "simulate");
 

@@ -42,22 +42,12 @@ namespace {
 
 namespace sp = estimation::specificity;
 
-struct SpecificityCommandOptions {
-  std::filesystem::path config;
-  std::filesystem::path output;
-  std::filesystem::path summary;
-  int threads = 0;
-  std::vector<std::string> overrides;
-};
-
-int run_specificity_command(const SpecificityCommandOptions& o, CommandContext& ctx) {
-  io::Provenance prov;
-  prov.start_utc = io::utc_now();
+int run_specificity_command(const StudyOptions& o, CommandContext& ctx) {
+  io::Provenance prov = started_provenance();
   const auto wall_start = std::chrono::steady_clock::now();
   const Config config = load_config(o.config, o.overrides, *ctx.models);
   const SpecificitySetup setup = parse_specificity_setup(config);
-  const std::filesystem::path output =
-      !o.output.empty() ? o.output : default_output_path(o.config, "specificity");
+  const std::filesystem::path output = study_output(o, "specificity");
   const int n = static_cast<int>(setup.cases.size());
 
   io::SpecificityRun run;
@@ -113,12 +103,11 @@ int run_specificity_command(const SpecificityCommandOptions& o, CommandContext& 
       io::write_provenance(h5, prov);
       h5.commit();
     }
-    ctx.out << io::specificity_report(config.name, setup, summary, run) << "wrote " << output.string() << "\n";
-    if (!o.summary.empty()) {
-      const auto j = io::specificity_json(config.name, setup, summary, run, output.string());
-      io::write_text_file(o.summary, [&](std::ostream& f) { f << j.dump(2) << "\n"; });
-      ctx.out << "wrote " << o.summary.string() << "\n";
-    }
+    report_written(ctx, io::specificity_report(config.name, setup, summary, run), output, o.summary,
+                   [&](const std::filesystem::path& p) {
+                     const auto j = io::specificity_json(config.name, setup, summary, run, output.string());
+                     io::write_text_file(p, [&](std::ostream& f) { f << j.dump(2) << "\n"; });
+                   });
   }
   if (!summary.failed_cases.empty() && summary.ok()) {
     spdlog::warn("{} of {} calibrations failed and were left out of the statistics (listed above and "
@@ -146,19 +135,12 @@ void register_specificity(CLI::App& app, CommandContext& ctx) {
                                parse_calibration_problem(c);
                              }
                            }});
-  auto opts = std::make_shared<SpecificityCommandOptions>();
-  CLI::App* sub = app.add_subcommand(
-      "specificity", "Calibrate a cohort and find the parameters that separate two groups");
-  sub->add_option("config", opts->config,
-                  "Config file (YAML) with cases:, observations:, estimate:, calibration: "
-                  "(and optionally specificity:)")
-      ->required();
-  sub->add_option("-o,--output", opts->output, "Results file (HDF5); default results/<config>-specificity.h5");
-  sub->add_option("--summary", opts->summary, "Also write the per-case estimates and the statistics as JSON");
-  sub->add_option("--threads", opts->threads, "Threads (default: specificity.threads, else all cores)")
-      ->check(CLI::PositiveNumber);
-  add_set_option(*sub, opts->overrides);
-  sub->callback([opts, &ctx] { ctx.run = [opts, &ctx] { return run_specificity_command(*opts, ctx); }; });
+  add_study_command(app, ctx, "specificity", "Calibrate a cohort and find the parameters that separate two groups",
+                    {"Config file (YAML) with cases:, observations:, estimate:, calibration: "
+                     "(and optionally specificity:)",
+                     "Also write the per-case estimates and the statistics as JSON",
+                     "Threads (default: specificity.threads, else all cores)"},
+                    run_specificity_command);
 }
 
 }  // namespace sigmaheart::app

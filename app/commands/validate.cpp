@@ -5,18 +5,12 @@
 #include "app/config.h"
 #include "app/errors.h"
 
-#include <memory>
 
 namespace sigmaheart::app {
 
 namespace {
 
-struct ValidateOptions {
-  std::filesystem::path config;
-  std::vector<std::string> overrides;
-};
-
-int run_validate(const ValidateOptions& o, CommandContext& ctx) {
+int run_validate(const ConfigOptions& o, CommandContext& ctx) {
   const Config config = load_config(o.config, o.overrides, *ctx.models);
   const ConfigNode root = config.file.root();
   std::vector<std::string> checked = {"simulator"};
@@ -44,11 +38,8 @@ int run_validate(const ValidateOptions& o, CommandContext& ctx) {
 }  // namespace
 
 void register_validate(CLI::App& app, CommandContext& ctx) {
-  auto opts = std::make_shared<ValidateOptions>();
-  CLI::App* sub = app.add_subcommand("validate", "Check a config (keys, types, units, bounds) without running it");
-  sub->add_option("config", opts->config, "Config file (YAML)")->required();
-  add_set_option(*sub, opts->overrides);
-  sub->callback([opts, &ctx] { ctx.run = [opts, &ctx] { return run_validate(*opts, ctx); }; });
+  add_config_command(app, ctx, "validate", "Check a config (keys, types, units, bounds) without running it",
+                     run_validate);
 }
 
 }  // namespace sigmaheart::app

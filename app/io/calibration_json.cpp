@@ -20,16 +20,31 @@ Eigen::VectorXd shown_fit(const std::optional<estimation::UtFit>& f, const Obser
   return Eigen::VectorXd::Constant(m, std::nan(""));
 }
 
+// What the JSON summary and the report both show: the summary, the observations with their
+// display units, the parameter units and the fits before and after (in display units).
+struct Shown {
+  const estimation::UtSummary& summary;
+  const observers::ObservationSet& obs;
+  ObservationDisplay disp;
+  std::vector<std::string> units;
+  Eigen::VectorXd before;
+  Eigen::VectorXd after;
+};
+
+Shown shown_values(const CalibrationResults& results) {
+  const estimation::UtSummary& summary = *results.summary;
+  const observers::ObservationSet& obs = results.problem->observations;
+  ObservationDisplay disp = observation_display(obs);
+  Eigen::VectorXd before = shown_fit(summary.fit_before, disp);
+  Eigen::VectorXd after = shown_fit(summary.fit_after, disp);
+  return {summary, obs, std::move(disp), results.problem->prior.units(), std::move(before), std::move(after)};
+}
+
 }  // namespace
 
 void write_calibration_json(const std::filesystem::path& path, const std::string& name,
                             const CalibrationResults& results) {
-  const estimation::UtSummary& summary = *results.summary;
-  const observers::ObservationSet& obs = results.problem->observations;
-  const ObservationDisplay disp = observation_display(obs);
-  const std::vector<std::string> units = results.problem->prior.units();
-  const Eigen::VectorXd before = shown_fit(summary.fit_before, disp);
-  const Eigen::VectorXd after = shown_fit(summary.fit_after, disp);
+  const auto& [summary, obs, disp, units, before, after] = shown_values(results);
 
   nlohmann::ordered_json j;
   j["kind"] = "calibrate";
@@ -70,12 +85,7 @@ void write_calibration_json(const std::filesystem::path& path, const std::string
 }
 
 std::string calibration_report(const CalibrationResults& results) {
-  const estimation::UtSummary& summary = *results.summary;
-  const observers::ObservationSet& obs = results.problem->observations;
-  const ObservationDisplay disp = observation_display(obs);
-  const std::vector<std::string> units = results.problem->prior.units();
-  const Eigen::VectorXd before = shown_fit(summary.fit_before, disp);
-  const Eigen::VectorXd after = shown_fit(summary.fit_after, disp);
+  const auto& [summary, obs, disp, units, before, after] = shown_values(results);
   const auto& err_after = summary.metrics_after.relative_error_percent;
 
   std::ostringstream t;

@@ -68,6 +68,12 @@ class Lexer {
       fail(std::string("expected ") + expected + " (an integer), got '" + t + "'");
     }
   }
+  // The three coordinates of a node.
+  Eigen::Vector3d node_coordinates() {
+    Eigen::Vector3d x;
+    for (int d = 0; d < 3; ++d) x[d] = real("a node coordinate");
+    return x;
+  }
   double real(const char* expected) {
     const std::string t = token(expected);
     try {
@@ -204,9 +210,7 @@ Mesh parse_gmsh(const std::string& text, const std::string& name) {
         const long long n = lx.integer("the number of nodes");
         for (long long i = 0; i < n; ++i) {
           const long long id = lx.integer("a node number");
-          Eigen::Vector3d x;
-          for (int d = 0; d < 3; ++d) x[d] = lx.real("a node coordinate");
-          coords[id] = x;
+          coords[id] = lx.node_coordinates();
         }
       } else {
         const long long nb = lx.integer("the number of entity blocks");
@@ -221,11 +225,7 @@ Mesh parse_gmsh(const std::string& text, const std::string& name) {
           if (param != 0) lx.fail("parametric node coordinates are not supported");
           std::vector<long long> ids(static_cast<size_t>(n));
           for (auto& id : ids) id = lx.integer("a node tag");
-          for (long long id : ids) {
-            Eigen::Vector3d x;
-            for (int d = 0; d < 3; ++d) x[d] = lx.real("a node coordinate");
-            coords[id] = x;
-          }
+          for (long long id : ids) coords[id] = lx.node_coordinates();
         }
       }
       lx.expect("$EndNodes");

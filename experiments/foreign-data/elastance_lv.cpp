@@ -52,10 +52,7 @@ Eigen::VectorXd ElastanceLv::initial_state() const {
 }
 
 Sample ElastanceLv::observe(double t, const Eigen::VectorXd& y) const {
-  Sample s;
-  s.t = t;
-  s.V_lv = y(0);
-  s.V_la = y(1);
+  Sample s = sample_with_volumes(t, y(0), y(1));
   const double P_c = y(2);
   s.P_lv = lv_pressure(t, s.V_lv);
   const double E_la = p_.E_la_min + p_.kick * atrial_activation(t) * (p_.E_la_max - p_.E_la_min);

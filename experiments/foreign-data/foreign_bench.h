@@ -25,6 +25,16 @@ struct Sample {
   double Q_per = 0.0; ///< [mL/s] peripheral outflow of the Windkessel through R
 };
 
+/// A Sample at time t [s] with the LV and atrial volumes [mL] set; the pressures and flows are
+/// the circuit's to fill.
+inline Sample sample_with_volumes(double t, double V_lv, double V_la) {
+  Sample s;
+  s.t = t;
+  s.V_lv = V_lv;
+  s.V_la = V_la;
+  return s;
+}
+
 /// An LV + atrium + valves + Windkessel circuit with ventricular activation onset at t = 0 mod T.
 /// Contract: rhs and observe are pure functions of (t, y) (no hidden state), so a simulator can be
 /// shared read-only between threads; sizes of y and dy equal initial_state().size().

@@ -47,10 +47,7 @@ double OneFibreLv::cavity_pressure(double t, double V_lv, double l_c) const {
 }
 
 Sample OneFibreLv::observe(double t, const Eigen::VectorXd& y) const {
-  Sample s;
-  s.t = t;
-  s.V_lv = y(0);
-  s.V_la = y(2);
+  Sample s = sample_with_volumes(t, y(0), y(2));
   const double P_c = y(3);
   s.P_lv = cavity_pressure(t, s.V_lv, y(1));
   // atrial twitch sin^2(pi s / T_la) starting t_la_lead before ventricular activation

@@ -15,12 +15,7 @@
 namespace sigmaheart::app {
 namespace {
 
-using sigmaheart::testing::read_file;
-using sigmaheart::testing::scratch_dir;
-using sigmaheart::testing::write_file;
-
-using sigmaheart::testing::CliRun;
-using sigmaheart::testing::cli;
+using namespace sigmaheart::testing;
 
 const std::string kHealthy = std::string(SIGMAHEART_SOURCE_DIR) + "/configs/healthy.yaml";
 

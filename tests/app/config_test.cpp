@@ -13,7 +13,7 @@
 namespace sigmaheart::app {
 namespace {
 
-using sigmaheart::testing::error_of;
+using namespace sigmaheart::testing;
 
 const char* kHealthy =
     "name: healthy\n"                                // 1
@@ -182,9 +182,9 @@ TEST(Config, RegionalNumericsErrorsReadThroughTheModelKeepTheirLocation) {
 TEST(Config, ModelsComeFromTheRegistryGiven) {
   const std::string text = "name: s\nsimulator: {model: test-beat, numerics: {samples: 5}}\n";
   EXPECT_NE(error_of([&] { parse_config(text, "s.yaml"); }).find("unknown value 'test-beat'"), std::string::npos);
-  EXPECT_EQ(error_of([&] { parse_config(text, "s.yaml", {}, sigmaheart::testing::stand_in_models()); }),
+  EXPECT_EQ(error_of([&] { parse_config(text, "s.yaml", {}, stand_in_models()); }),
             "s.yaml:2:51: numerics.samples: expected an integer >= 10");
-  const Config c = parse_config(text, "s.yaml", {"numerics.samples=20"}, sigmaheart::testing::stand_in_models());
+  const Config c = parse_config(text, "s.yaml", {"numerics.samples=20"}, stand_in_models());
   EXPECT_EQ(c.simulator.model, "test-beat");
   EXPECT_EQ(c.simulator.make()->run(c.simulator.parameters.nominal()).trajectory.samples(), 20);
 }

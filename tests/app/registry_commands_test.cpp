@@ -49,6 +49,16 @@ CliRun run(const std::vector<std::string>& args) {
 
 nlohmann::json read_json(const std::filesystem::path& p) { return nlohmann::json::parse(read_file(p)); }
 
+// `command` on `config`, quiet, with results in dir/r.h5 and the JSON summary in dir/r.json;
+// `extra` follows.
+CliRun run_with_summary(const std::string& command, const std::filesystem::path& config,
+                        const std::filesystem::path& dir, const std::vector<std::string>& extra = {}) {
+  std::vector<std::string> args = {"--log-level", "off", command, config.string(), "-o", (dir / "r.h5").string(),
+                                   "--summary", (dir / "r.json").string()};
+  args.insert(args.end(), extra.begin(), extra.end());
+  return run(args);
+}
+
 const char* kModel =
     "simulator:\n"
     "  model: test-two-segment\n"
@@ -110,8 +120,7 @@ TEST(RegistryCommands, CalibrateRecoversSegmentContractilitiesFromSynthesizedCur
                                   "  sigma0_02: {spread: 30 %}\n"
                                   "  R_d: {spread: 20 %}\n"
                                   "calibration: {mode: iterate-keep-spread, max_iterations: 15, tolerance: 1.0e-3}\n");
-  const CliRun r = run({"--log-level", "off", "calibrate", cfg.string(), "-o", (dir / "r.h5").string(), "--summary",
-                        (dir / "r.json").string(), "--threads", "2"});
+  const CliRun r = run_with_summary("calibrate", cfg, dir, {"--threads", "2"});
   ASSERT_EQ(r.code, app::kExitOk) << r.err << r.out;
   const auto j = read_json(dir / "r.json");
   const auto& p = j["parameters"];
@@ -140,8 +149,7 @@ TEST(RegistryCommands, SobolStudyOfTheTestModelSeesTheSymmetryOfItsSegments) {
                                   "    R_d: {relative: 0.1}\n"
                                   "  sobol: {N: 128, bootstrap: 50, convergence_levels: 2}\n"
                                   "  ensemble: {threads: 2}\n");
-  const CliRun r = run({"--log-level", "off", "sensitivity", cfg.string(), "-o", (dir / "r.h5").string(),
-                        "--summary", (dir / "r.json").string()});
+  const CliRun r = run_with_summary("sensitivity", cfg, dir);
   ASSERT_EQ(r.code, app::kExitOk) << r.err << r.out;
   const auto j = read_json(dir / "r.json");
   EXPECT_TRUE(j["valid"].get<bool>());
@@ -182,8 +190,7 @@ TEST(RegistryCommands, PersonalizeFindsTheSegmentsOfTheTestModelByTags) {
                                   "  filter: {beats: 3, forgetting: 0.9, r_inflation: 2, threads: 2}\n"
                                   "  truth:\n"
                                   "    sigma0: [35 kPa, 60 kPa]\n");
-  const CliRun r = run({"--log-level", "off", "personalize", cfg.string(), "-o", (dir / "r.h5").string(),
-                        "--summary", (dir / "r.json").string()});
+  const CliRun r = run_with_summary("personalize", cfg, dir);
   ASSERT_EQ(r.code, app::kExitOk) << r.err << r.out;
   const auto j = read_json(dir / "r.json");
   EXPECT_EQ(j["termination"], "completed");

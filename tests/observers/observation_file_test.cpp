@@ -69,6 +69,17 @@ struct BadCase {
   std::vector<std::string> expected;  // substrings of the message
 };
 
+// Each case fails to parse with a message holding every one of its expected parts.
+void expect_errors(const std::vector<BadCase>& cases) {
+  for (const auto& c : cases) {
+    const std::string msg = error_of(c.text);
+    ASSERT_FALSE(msg.empty()) << c.what << ": parsed without error";
+    for (const auto& part : c.expected) {
+      EXPECT_NE(msg.find(part), std::string::npos) << c.what << ": '" << part << "' not in: " << msg;
+    }
+  }
+}
+
 TEST(ObservationFile, NamesFileLineAndWhatWasExpectedForEachMalformedInput) {
   const std::vector<BadCase> cases = {
       {"empty", "# nothing\n\n", {"cohort/p07.csv", "missing header"}},
@@ -98,13 +109,7 @@ TEST(ObservationFile, NamesFileLineAndWhatWasExpectedForEachMalformedInput) {
       {"duplicate column", "time [ms], V_lv [mL], V_lv [mL]\n",
        {"cohort/p07.csv:1:", "appears twice"}},
   };
-  for (const auto& c : cases) {
-    const std::string msg = error_of(c.text);
-    ASSERT_FALSE(msg.empty()) << c.what << ": parsed without error";
-    for (const auto& part : c.expected) {
-      EXPECT_NE(msg.find(part), std::string::npos) << c.what << ": '" << part << "' not in: " << msg;
-    }
-  }
+  expect_errors(cases);
 }
 
 // Data as it comes: the time column as t/time in any case, units in brackets or parentheses (or a
@@ -265,13 +270,7 @@ TEST(ObservationFile, RejectsBadVariantsWithLineAndColumn) {
       {"missing time cell", "t [s], V_lv [mL]\n0, 140\nNA, 120\n0.3, 100\n",
        {"cohort/p07.csv:3:1:", "expected a time, got 'NA'"}},
   };
-  for (const auto& c : cases) {
-    const std::string msg = error_of(c.text);
-    ASSERT_FALSE(msg.empty()) << c.what << ": parsed without error";
-    for (const auto& part : c.expected) {
-      EXPECT_NE(msg.find(part), std::string::npos) << c.what << ": '" << part << "' not in: " << msg;
-    }
-  }
+  expect_errors(cases);
 }
 
 // Frames later than one simulated beat would be compared with the simulated beat wrapped into its

@@ -22,7 +22,7 @@ namespace {
 using estimation::parallel::Communicator;
 using estimation::parallel::SerialCommunicator;
 using estimation::parallel::SharedCounter;
-using sigmaheart::testing::scratch_dir;
+using namespace sigmaheart::testing;
 
 // Rank 1 of 2 whose partner, rank 0, returns `root_code`. No collective but the exit-code
 // agreement may be reached (the commands used here have no ensemble).

@@ -8,9 +8,7 @@
 namespace sigmaheart::app::personalize_testing {
 namespace {
 
-using sigmaheart::testing::read_file;
-using sigmaheart::testing::scratch_dir;
-using sigmaheart::testing::write_file;
+using namespace sigmaheart::testing;
 
 TEST(PersonalizeCommand, OnePassMarksTheInfarctedSegmentsLow) {
   const auto dir = scratch_dir();

@@ -18,12 +18,7 @@
 namespace sigmaheart::app {
 namespace {
 
-using sigmaheart::testing::read_file;
-using sigmaheart::testing::scratch_dir;
-using sigmaheart::testing::write_file;
-
-using sigmaheart::testing::CliRun;
-using sigmaheart::testing::cli;
+using namespace sigmaheart::testing;
 
 nlohmann::json read_json(const std::filesystem::path& p) { return nlohmann::json::parse(read_file(p)); }
 

@@ -17,9 +17,7 @@
 namespace sigmaheart::app {
 namespace {
 
-using sigmaheart::testing::read_file;
-using sigmaheart::testing::scratch_dir;
-using sigmaheart::testing::write_file;
+using namespace sigmaheart::testing;
 
 TEST(SpecificityCohort, OnlySigma0DiffersAndTheStudyNamesSigma0First) {
   const auto dir = scratch_dir();

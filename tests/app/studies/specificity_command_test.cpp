@@ -15,13 +15,7 @@
 namespace sigmaheart::app {
 namespace {
 
-using sigmaheart::testing::BeatStandIn;
-using sigmaheart::testing::read_file;
-using sigmaheart::testing::scratch_dir;
-using sigmaheart::testing::write_file;
-
-using sigmaheart::testing::CliRun;
-using sigmaheart::testing::cli;
+using namespace sigmaheart::testing;
 
 struct Truth {
   const char* name;

@@ -207,6 +207,12 @@ MatrixXd covariance(const RoukfStep& s) {
   return s.L * s.U.llt().solve(s.L.transpose());
 }
 
+// Step k of the ROUKF holds the Kalman filter's state and covariance (to 1e-10).
+void expect_equals_kalman(const RoukfStep& s, const KalmanStep& kf, size_t k) {
+  EXPECT_LE((s.x - kf.x).cwiseAbs().maxCoeff(), 1e-10) << "step " << k;
+  EXPECT_LE((covariance(s) - kf.P).cwiseAbs().maxCoeff(), 1e-10) << "step " << k;
+}
+
 TEST(Roukf, EqualsKalmanFilterOnLinearModel) {
   LinearSimulator sim;
   const RoukfData data = make_data(sim, 12);
@@ -216,8 +222,7 @@ TEST(Roukf, EqualsKalmanFilterOnLinearModel) {
   const auto kf = kalman(sim, data, o);
   ASSERT_EQ(s.steps.size(), kf.size());
   for (size_t k = 0; k < kf.size(); ++k) {
-    EXPECT_LE((s.steps[k].x - kf[k].x).cwiseAbs().maxCoeff(), 1e-10) << "step " << k;
-    EXPECT_LE((covariance(s.steps[k]) - kf[k].P).cwiseAbs().maxCoeff(), 1e-10) << "step " << k;
+    expect_equals_kalman(s.steps[k], kf[k], k);
   }
   // The parameters moved from the prior towards the truth (1.5, 1.2).
   EXPECT_NEAR(s.theta(0), 1.5, 0.15);
@@ -305,8 +310,7 @@ TEST(Roukf, ForgettingFactorEqualsTheFadingMemoryKalmanFilter) {
   ASSERT_TRUE(s.ok()) << s.message;
   const auto kf = kalman(sim, data, o);
   for (size_t k = 0; k < kf.size(); ++k) {
-    EXPECT_LE((s.steps[k].x - kf[k].x).cwiseAbs().maxCoeff(), 1e-10) << "step " << k;
-    EXPECT_LE((covariance(s.steps[k]) - kf[k].P).cwiseAbs().maxCoeff(), 1e-10) << "step " << k;
+    expect_equals_kalman(s.steps[k], kf[k], k);
   }
   // Fading memory keeps the parameter spread above the plain filter's.
   const RoukfSummary plain = run_roukf(sim, linear_prior(), data, linear_options());
@@ -325,8 +329,7 @@ TEST(Roukf, PerMemberInitialStatesCarryTheInitialStateParameterCorrelation) {
   ASSERT_TRUE(s.ok()) << s.message;
   const auto kf = kalman(sim, data, o);
   for (size_t k = 0; k < kf.size(); ++k) {
-    EXPECT_LE((s.steps[k].x - kf[k].x).cwiseAbs().maxCoeff(), 1e-10) << "step " << k;
-    EXPECT_LE((covariance(s.steps[k]) - kf[k].P).cwiseAbs().maxCoeff(), 1e-10) << "step " << k;
+    expect_equals_kalman(s.steps[k], kf[k], k);
   }
 }
 
@@ -351,8 +354,7 @@ TEST(Roukf, PredictionOnlyStretchKeepsTheKalmanCovariance) {
   ASSERT_TRUE(s.ok()) << s.message;
   const auto kf = kalman(sim, data, o);
   for (int k = 2; k < 9; ++k) {
-    EXPECT_LE((s.steps[k].x - kf[k].x).cwiseAbs().maxCoeff(), 1e-10) << "step " << k;
-    EXPECT_LE((covariance(s.steps[k]) - kf[k].P).cwiseAbs().maxCoeff(), 1e-10) << "step " << k;
+    expect_equals_kalman(s.steps[k], kf[k], k);
   }
   // Without data the parameter covariance does not change (parameters are constant in time).
   EXPECT_LE((s.steps[6].L.bottomRows(2) * s.steps[6].L.bottomRows(2).transpose() -
@@ -374,8 +376,7 @@ TEST(Roukf, MissingChannelsUseOnlyThePresentOnes) {
   const auto kf = kalman(sim, data, o);
   EXPECT_EQ(s.steps[1].observed, 1);
   for (size_t k = 0; k < kf.size(); ++k) {
-    EXPECT_LE((s.steps[k].x - kf[k].x).cwiseAbs().maxCoeff(), 1e-10) << "step " << k;
-    EXPECT_LE((covariance(s.steps[k]) - kf[k].P).cwiseAbs().maxCoeff(), 1e-10) << "step " << k;
+    expect_equals_kalman(s.steps[k], kf[k], k);
   }
 }
 
@@ -432,13 +433,18 @@ TEST(Roukf, FailedMemberIsRetriedWithARefinedTimeStep) {
   EXPECT_LE((s.steps.back().x - kf.back().x).cwiseAbs().maxCoeff(), 1e-10);
 }
 
-TEST(Roukf, WithoutRetriesAFailureShrinksTheSpreadAndSkipsTheAnalysis) {
+// The linear filter over 3 frames with the members beyond a = 1.45 failing, under `policy`.
+RoukfSummary run_with_failing_members(RoukfFailurePolicy policy) {
   LinearSimulator sim;
   const RoukfData data = make_data(sim, 3);
   sim.fail_above = 1.45;  // the full spread reaches a = 1.61, the halved one 1.31
   RoukfOptions o = linear_options();
-  o.failure_policy = RoukfFailurePolicy::kSkipWithInflation;
-  const RoukfSummary s = run_roukf(sim, linear_prior(), data, o);
+  o.failure_policy = policy;
+  return run_roukf(sim, linear_prior(), data, o);
+}
+
+TEST(Roukf, WithoutRetriesAFailureShrinksTheSpreadAndSkipsTheAnalysis) {
+  const RoukfSummary s = run_with_failing_members(RoukfFailurePolicy::kSkipWithInflation);
   ASSERT_TRUE(s.ok()) << s.message;
   EXPECT_TRUE(s.steps[0].analysis_skipped);
   EXPECT_GE(s.skipped_analyses, 1);
@@ -448,12 +454,7 @@ TEST(Roukf, WithoutRetriesAFailureShrinksTheSpreadAndSkipsTheAnalysis) {
 }
 
 TEST(Roukf, AbortPolicyReportsTheFailedMembersParameters) {
-  LinearSimulator sim;
-  const RoukfData data = make_data(sim, 3);
-  sim.fail_above = 1.45;  // the full spread reaches a = 1.61, the halved one 1.31
-  RoukfOptions o = linear_options();
-  o.failure_policy = RoukfFailurePolicy::kAbort;
-  const RoukfSummary s = run_roukf(sim, linear_prior(), data, o);
+  const RoukfSummary s = run_with_failing_members(RoukfFailurePolicy::kAbort);
   EXPECT_EQ(s.termination, RoukfTermination::kMemberFailed);
   EXPECT_NE(s.message.find("a = "), std::string::npos) << s.message;
   EXPECT_NE(s.message.find("too large"), std::string::npos) << s.message;
