@@ -1,6 +1,9 @@
 #include "app/config.h"
 
 #include "app/model_options.h"
+#include "model/enum_names.h"
+
+#include <array>
 
 #include <mutex>
 #include <stdexcept>
@@ -8,13 +11,13 @@
 namespace sigmaheart::app {
 
 const char* to_string(ValueSource source) {
-  switch (source) {
-    case ValueSource::kDefault: return "default";
-    case ValueSource::kPreset: return "preset";
-    case ValueSource::kConfig: return "config";
-    case ValueSource::kOverride: return "--set";
-  }
-  return "?";
+  static constexpr std::array<model::EnumName<ValueSource>, 4> kNames{{
+      {ValueSource::kDefault, "default"},
+      {ValueSource::kPreset, "preset"},
+      {ValueSource::kConfig, "config"},
+      {ValueSource::kOverride, "--set"},
+  }};
+  return model::enum_to_string(kNames, source, "?");
 }
 
 namespace {

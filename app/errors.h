@@ -1,4 +1,4 @@
-// The error types of the command line and their exit codes (ARCHITECTURE.md, "Errors, in three
+// The error types of the command line and their exit codes (docs/architecture.md, "Errors, in three
 // tiers"). Bad input is an InputError that names the place (file:line:column) and what was
 // expected; a forward run that fails is a RunFailure. main() maps them to distinct exit codes.
 #pragma once

@@ -1,7 +1,7 @@
 // Ensembles of independent forward evaluations (sigma points, designs), serial, on threads and
 // on ranks, implemented on parallel::WorkerPool (estimation/parallel/worker_pool.h). Each worker
 // owns its own clone of the forward model; nothing mutable is shared, so the numbers do not
-// depend on the backend, the thread count, the rank count or the hand-out order (ARCHITECTURE.md,
+// depend on the backend, the thread count, the rank count or the hand-out order (docs/architecture.md,
 // "Parallelism").
 //
 // Failures: a member whose forward model returns a non-ok Status, throws, or returns non-finite

@@ -1,6 +1,6 @@
 // Adapter from the simulator contract to the estimators' ForwardModel: a subset of a simulator's
 // parameters is estimated, the others stay at a base value; the run's trajectory goes through an
-// observer. ARCHITECTURE.md, "Data flow of one calibration".
+// observer. docs/architecture.md, "Data flow of one calibration".
 #pragma once
 
 #include "estimation/ensemble.h"

@@ -1,4 +1,4 @@
-// The MPI session of a process (ARCHITECTURE.md, "Parallelism and scale-out"). Without MPI
+// The MPI session of a process (docs/architecture.md, "Parallelism and scale-out"). Without MPI
 // compiled in (SIGMAHEART_HAVE_MPI undefined), or before MPI is initialised, the process is
 // rank 0 of 1 and MpiSession does nothing, so the same code runs serially. Ranks and collectives
 // are reached through parallel::Communicator (estimation/parallel/communicator.h); this file is

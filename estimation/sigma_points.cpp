@@ -86,7 +86,7 @@ void fill_axes(Eigen::MatrixXd& unit, int p, int offset, double radius) {
   }
 }
 
-// Tier-1 invariant (ESTIMATION.md s.2): sum wm = 1, U wm = 0, U diag(wc) U^T = I.
+// Tier-1 invariant (docs/estimation.md s.2): sum wm = 1, U wm = 0, U diag(wc) U^T = I.
 void check_moments(const SigmaPoints& sp, const SigmaOptions& options) {
   const int p = static_cast<int>(sp.unit.rows());
   // Weights of the scaled rule can be ~1/alpha^2; the tolerance follows their size.

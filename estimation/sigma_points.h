@@ -1,4 +1,4 @@
-// Sigma-point rules (ESTIMATION.md s.2). Unit points U (p x r) with weights wm (mean) and wc
+// Sigma-point rules (docs/estimation.md s.2). Unit points U (p x r) with weights wm (mean) and wc
 // (covariance) satisfy sum wm = 1, U wm = 0 and U diag(wc) U^T = I; the points for (mean, P) are
 // mean + S U_i with S S^T = P.
 #pragma once

@@ -1,5 +1,5 @@
 // Parameter transforms eta (unconstrained, where sigma points live) -> theta (physical, what the
-// simulator sees). ESTIMATION.md s.1. Clipping to bounds is never done silently.
+// simulator sees). docs/estimation.md s.1. Clipping to bounds is never done silently.
 #pragma once
 
 #include <optional>

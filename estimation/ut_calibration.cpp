@@ -428,7 +428,7 @@ UtSummary UtCalibration::run() {
       break;
     }
 
-    // The update (Marchesseau et al. 2013; ESTIMATION.md s.3) in whitened observations.
+    // The update (Marchesseau et al. 2013; docs/estimation.md s.3) in whitened observations.
     const Eigen::MatrixXd Zw = Lt.solve(rec.Z.transpose());  // m x r
     const Eigen::VectorXd zbar_w = Zw * sp.wm;
     const Eigen::MatrixXd dZ = Zw.colwise() - zbar_w;

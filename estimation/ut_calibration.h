@@ -1,4 +1,4 @@
-// Unscented-Transform calibration of a few global parameters (ESTIMATION.md s.3; Marchesseau et
+// Unscented-Transform calibration of a few global parameters (docs/estimation.md s.3; Marchesseau et
 // al. 2013, Biomech Model Mechanobiol 12:815; the UT of Julier & Uhlmann, Proc IEEE 92:401, 2004).
 //
 // One iteration, all in eta (the unconstrained coordinates of each parameter's Transform):
@@ -22,7 +22,7 @@
 // Stop when max_j |eta+_j - eta_c,j| / sigma0_j < tolerance (sigma0 = prior std in eta), or after
 // max_iterations.
 //
-// Failure policy (ESTIMATION.md s.8), every action recorded in Summary::actions:
+// Failure policy (docs/estimation.md s.8), every action recorded in Summary::actions:
 //  - kAbort: the first iteration with a failed member ends the run (kAbortedFailures) with the
 //    failed members' parameters and messages in Summary::failed and Summary::message.
 //  - kShrinkAndRetry (default): re-sample the same iteration with the spread multiplied by

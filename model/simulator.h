@@ -1,4 +1,4 @@
-// The contract between estimators and simulators (ARCHITECTURE.md, "The contract").
+// The contract between estimators and simulators (docs/architecture.md, "The contract").
 //
 // A simulator is a black box: a full parameter vector theta (physical units, SI, in the order of
 // parameters()) goes in; a Trajectory of named channels with units comes out, together with a

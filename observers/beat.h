@@ -1,7 +1,7 @@
 // One beat of sampled curves: the periodic time grid, centred derivatives, extrema and
 // interpolation shared by every observer, so that indices and curves extracted from a measured
 // curve (about 30 frames per beat) and from a simulated beat (a fine grid) are computed by the
-// same code and stay comparable (ESTIMATION.md s.5).
+// same code and stay comparable (docs/estimation.md s.5).
 #pragma once
 
 #include "model/simulator.h"

@@ -1,5 +1,5 @@
 // Concatenation of observers: z = (z_1, z_2, ...), e.g. global indices and curves at frames in one
-// observation vector (ESTIMATION.md s.5: "an ObservationSet can mix them").
+// observation vector (docs/estimation.md s.5: "an ObservationSet can mix them").
 #pragma once
 
 #include "observers/observer.h"

@@ -1,4 +1,4 @@
-// Curves sampled at the image frame times, aligned on end-diastole (ESTIMATION.md s.5): LV volume
+// Curves sampled at the image frame times, aligned on end-diastole (docs/estimation.md s.5): LV volume
 // and pressure at about 30 cine frames per beat for the global calibration, the 17 AHA regional
 // volumes V_seg01..V_seg17 for the ROUKF.
 //

@@ -1,6 +1,6 @@
 // Global indices of one beat of LV volume (and pressure) curves: the observations of the global
 // Unscented-Transform calibration (Marchesseau et al. 2013, Biomech Model Mechanobiol 12:815;
-// ESTIMATION.md s.5). The same code reads a simulated beat (fine time grid) and a measured curve
+// docs/estimation.md s.5). The same code reads a simulated beat (fine time grid) and a measured curve
 // (about 30 cine frames per beat), so both sides of the comparison are defined identically.
 //
 // Definitions (x' by the centred differences of beat.h; extrema are sample extrema unless

@@ -1,4 +1,4 @@
-// Building ObservationSets from measured data (ESTIMATION.md s.5): global indices computed from
+// Building ObservationSets from measured data (docs/estimation.md s.5): global indices computed from
 // measured curves with the same GlobalIndices code the simulated beats go through, curves at the
 // measured frames aligned on end-diastole, typed-in values with units; noise per entry as a
 // standard deviation in any known unit, relative (% of the value), or a full covariance.

@@ -1,4 +1,4 @@
-// Observation operators: a Trajectory in, a named observation vector z out (ESTIMATION.md s.5).
+// Observation operators: a Trajectory in, a named observation vector z out (docs/estimation.md s.5).
 // Units: z is SI (m^3, Pa, s, m^3/s, Pa/s, "1" for fractions); the names and units of z are those
 // of outputs(). Clinical units appear only at the I/O boundary (app/), never here.
 #pragma once

@@ -1,6 +1,6 @@
 // `sigmaheart calibrate CONFIG`: Unscented-Transform calibration of global parameters from LV
 // volume (and pressure) curves or typed-in indices (Marchesseau et al. 2013, Biomech Model
-// Mechanobiol 12:815; ESTIMATION.md s.3). Sections of the config: app/calibration_setup.h; what
+// Mechanobiol 12:815; docs/estimation.md s.3). Sections of the config: app/calibration_setup.h; what
 // is written: app/io/calibration_h5.h.
 #include "app/calibration_setup.h"
 #include "app/commands/commands.h"

@@ -57,7 +57,7 @@ void register_benchmark(CLI::App& app, CommandContext& ctx);  // the 3D Land et 
 void add_set_option(CLI::App& sub, std::vector<std::string>& overrides);
 // A provenance with start_utc set to now (a command's first line, so the time covers its work).
 io::Provenance started_provenance();
-// Fills the provenance every results file carries (ARCHITECTURE.md, "Results files") from the
+// Fills the provenance every results file carries (docs/architecture.md, "Results files") from the
 // config and the invocation: kind, name, config file and text, overrides, command line, seed,
 // thread and rank counts. start_utc and end_utc stay the command's to set.
 void fill_provenance(io::Provenance& prov, const Config& config, const CommandContext& ctx,

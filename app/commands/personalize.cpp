@@ -1,5 +1,5 @@
 // `sigmaheart personalize CONFIG`: regional personalisation with the Reduced-Order Unscented
-// Kalman Filter (Moireau & Chapelle 2011; ESTIMATION.md s.4): per-segment parameters (one
+// Kalman Filter (Moireau & Chapelle 2011; docs/estimation.md s.4): per-segment parameters (one
 // contractility per AHA segment, as Marchesseau et al. 2013, Med Image Anal 17:816) and any global
 // ones, from regional volume curves. The config's `personalize:` section: app/personalize_setup.h;
 // what is written: app/io/roukf_h5.h (HDF5 of kind "personalize" with every filter step, optional

@@ -1,5 +1,5 @@
 // `sigmaheart sensitivity CONFIG`: a one-at-a-time, Morris or Sobol' study of the configured
-// simulator's observer outputs (ESTIMATION.md s.6), or of an analytic test function with exact
+// simulator's observer outputs (docs/estimation.md s.6), or of an analytic test function with exact
 // indices, so a study set-up can be checked with the same command. The section is described in
 // app/sensitivity_setup.h, the results file in app/io/sensitivity_h5.h.
 //

@@ -1,5 +1,5 @@
 // `sigmaheart specificity CONFIG`: calibrate every case of a cohort with one calibration set-up,
-// then ask which parameters separate two groups (ESTIMATION.md s.7; estimation/specificity). The
+// then ask which parameters separate two groups (docs/estimation.md s.7; estimation/specificity). The
 // sections are described in app/specificity_setup.h (cases:, specificity:) and
 // app/calibration_setup.h (observations: without file:, estimate:, calibration:), the results
 // file in app/io/specificity_h5.h.

@@ -1,8 +1,8 @@
-// All-or-nothing output files (ARCHITECTURE.md, tier 2 of errors): everything is written to
+// All-or-nothing output files (docs/architecture.md, tier 2 of errors): everything is written to
 // "<name>.tmp" in the same directory and renamed over <name> only on commit(), so a crash or an
 // error never leaves a half-written file and an existing result is replaced only on success.
 //
-// Under several ranks (ARCHITECTURE.md, "Parallelism") every rank runs the same command, but only
+// Under several ranks (docs/architecture.md, "Parallelism") every rank runs the same command, but only
 // the root writes: run_cli opens an OutputRankScope(false) on the other ranks, where AtomicFile
 // writes to a private scratch file in the system temporary directory that commit() removes.
 // Writers therefore need no rank guard and never collide on the same file.

@@ -1,4 +1,4 @@
-// Results files in HDF5 (ARCHITECTURE.md, "Results files"), through the HDF5 C API.
+// Results files in HDF5 (docs/architecture.md, "Results files"), through the HDF5 C API.
 //
 // Hdf5Writer writes one file atomically (AtomicFile: "<name>.tmp", renamed on commit()). Paths
 // are absolute inside the file ("/trajectories/simulated/V_lv"); missing parent groups are

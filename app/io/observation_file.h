@@ -1,4 +1,4 @@
-// Observation curves in CSV (ESTIMATION.md s.5, "Observation files"): one header row of
+// Observation curves in CSV (docs/estimation.md s.5, "Observation files"): one header row of
 // `name [unit]` columns, time first, then one row per frame:
 //
 //   # patient 07, cine MRI, 30 frames      <- comments start with '#', anywhere on a line

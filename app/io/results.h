@@ -1,4 +1,4 @@
-// The pieces every results file shares (ARCHITECTURE.md, "Results files"): provenance on the root,
+// The pieces every results file shares (docs/architecture.md, "Results files"): provenance on the root,
 // the config text, the parameters, trajectories, and summaries of named values with units.
 //
 // Units convention of results files, CSV, JSON and the terminal: curves and indices are written

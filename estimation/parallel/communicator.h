@@ -1,4 +1,4 @@
-// The one abstraction of "other processes" in sigmaheart (ARCHITECTURE.md, "Parallelism"): a
+// The one abstraction of "other processes" in sigmaheart (docs/architecture.md, "Parallelism"): a
 // group of ranks that run the same code and meet in collective calls. SerialCommunicator is the
 // group of one; MpiCommunicator (estimation/parallel/mpi_communicator.h, built with
 // SIGMAHEART_HAVE_MPI) wraps an MPI communicator handle. Only WorkerPool and app/cli.cpp call

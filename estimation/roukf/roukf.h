@@ -1,6 +1,6 @@
 // Reduced-Order Unscented Kalman Filter (ROUKF) for joint state-parameter estimation
 // (Moireau & Chapelle 2011, "Reduced-order Unscented Kalman Filtering with application to
-// parameter identification in large-dimensional systems", ESAIM COCV 17:380; ESTIMATION.md s.4).
+// parameter identification in large-dimensional systems", ESAIM COCV 17:380; docs/estimation.md s.4).
 //
 // Augmented state x = (y, eta): y the simulator's flat model state, eta the estimated parameters
 // in unconstrained coordinates (theta = T(eta), transform.h). The covariance is kept factored,
@@ -13,7 +13,7 @@
 //   correction   z_i = H(x_i), HL = [z_i] D_a V^T, U = I + HL^T R^-1 HL,
 //                x+ = x- + L U^-1 HL^T R^-1 (y - z-)                 (eq. 3.10)
 // With simplex points one correction equals the Unscented-Transform update
-// K = P_xz (P_zz + R)^-1 (ESTIMATION.md s.3), and on a linear-Gaussian model the filter equals the
+// K = P_xz (P_zz + R)^-1 (docs/estimation.md s.3), and on a linear-Gaussian model the filter equals the
 // Kalman filter; both are tests. The filter corrects the model state too.
 //
 // Marchesseau et al. 2013 (Med Image Anal 17:816) use this filter to estimate one contractility
@@ -47,7 +47,7 @@ struct RoukfData {
   std::string validate() const;
 };
 
-// What to do when an ensemble member fails (ESTIMATION.md s.8). Every action is recorded.
+// What to do when an ensemble member fails (docs/estimation.md s.8). Every action is recorded.
 enum class RoukfFailurePolicy {
   // Retry the member with a refined time step (Options::refine) up to max_retries times; if it
   // still fails, re-run the whole step with the sigma spread shrunk by `shrink`, skip the analysis

@@ -1,4 +1,4 @@
-// What every sensitivity study shares (ESTIMATION.md s.6): the studied parameters are a Prior of
+// What every sensitivity study shares (docs/estimation.md s.6): the studied parameters are a Prior of
 // uniform parameters (estimation/prior.h: range, nominal, physical or eta space, and the map from
 // the unit cube of a design to theta), the random streams, the Summary fields every study fills,
 // and the running of a design through an Ensemble.

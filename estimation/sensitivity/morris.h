@@ -1,5 +1,5 @@
 // Morris elementary effects (Morris 1991, Technometrics 33:161), with mu* of Campolongo, Cariboni
-// & Saltelli (2007, Environ Model Softw 22:1509) (ESTIMATION.md s.6).
+// & Saltelli (2007, Environ Model Softw 22:1509) (docs/estimation.md s.6).
 //
 // Design: r trajectories of p + 1 points on the grid {0, 1/(L-1), ..., 1} of the unit cube, L
 // even. Trajectory t (stream make_stream(seed, t)): a random direction d_i = +-1 per parameter,

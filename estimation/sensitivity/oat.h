@@ -1,4 +1,4 @@
-// One-at-a-time sensitivity (ESTIMATION.md s.6; the thesis' study): each parameter moved to a low
+// One-at-a-time sensitivity (docs/estimation.md s.6; the thesis' study): each parameter moved to a low
 // and a high value around nominal with the others at nominal; the effect on every output. 2p + 1
 // runs: the nominal point, then low_1, high_1, low_2, high_2, ...
 #pragma once

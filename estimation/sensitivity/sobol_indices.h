@@ -1,4 +1,4 @@
-// Variance-based (Sobol') sensitivity indices from a Saltelli design (ESTIMATION.md s.6).
+// Variance-based (Sobol') sensitivity indices from a Saltelli design (docs/estimation.md s.6).
 //
 // Design (Saltelli et al. 2010, Comput Phys Commun 181:259, s.3): a scrambled Sobol' sequence of
 // dimension 2p gives N points; A is its first p columns, B its last p, and AB_i is A with column i

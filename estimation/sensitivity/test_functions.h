@@ -1,6 +1,6 @@
 // Analytic test models with exact variance-based sensitivity indices, as ForwardModels, so that a
 // study set-up (design size, estimator, bootstrap) can be checked against exact numbers with the
-// same code path that runs the heart model (ESTIMATION.md s.6, "Exact checks").
+// same code path that runs the heart model (docs/estimation.md s.6, "Exact checks").
 #pragma once
 
 #include "estimation/ensemble.h"

@@ -1,4 +1,4 @@
-// Specificity study (ESTIMATION.md s.7): calibrate every case of a cohort with the same
+// Specificity study (docs/estimation.md s.7): calibrate every case of a cohort with the same
 // configuration, then ask which parameters separate two groups (e.g. volunteers and heart-failure
 // patients). Per parameter: group means and spreads, effect sizes, Welch's t and Mann-Whitney U
 // tests, the AUC; jointly: the leave-one-out accuracy of a shrunk linear discriminant.

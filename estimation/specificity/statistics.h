@@ -1,4 +1,4 @@
-// Two-sample statistics for the specificity study (ESTIMATION.md s.7): effect sizes, Welch's t
+// Two-sample statistics for the specificity study (docs/estimation.md s.7): effect sizes, Welch's t
 // test, the Mann-Whitney U test and the AUC, with the special functions they need.
 #pragma once
 

@@ -1,4 +1,4 @@
-// The Bestel-Clement-Sorine (BCS) active law for one material point (MODELS.md section 1).
+// The Bestel-Clement-Sorine (BCS) active law for one material point (docs/models.md section 1).
 //
 // Rheology (Chapelle et al. 2012, "An energy-preserving muscle tissue model", IJMCE 10:189,
 // eqs. for the active branch; the finite-strain form of Bestel, Clement & Sorine 2001): a series
@@ -36,7 +36,7 @@
 
 namespace sigmaheart::model::bcs {
 
-// Parameters of the active law, SI. Defaults: the CCMLC2014-like working set of MODELS.md s.2
+// Parameters of the active law, SI. Defaults: the CCMLC2014-like working set of docs/models.md s.2
 // (after Caruel et al. 2014 Table 1 / Chapelle et al. 2012), to be tuned per model.
 struct ActiveParameters {
   double Es = 3e6;        // series-element stiffness [Pa]
@@ -60,7 +60,7 @@ struct ActiveState {
   double tau_c = 0.0;  // active stress of the contractile element [Pa]
 };
 
-// Step averages of the activation input u over [t0, t1] (MODELS.md s.1: u = +k_ATP while
+// Step averages of the activation input u over [t0, t1] (docs/models.md s.1: u = +k_ATP while
 // T_d <= t mod period < T_d + APD, -k_RS otherwise).
 struct StepActivation {
   double u_abs = 0.0;   // mean of |u| over the step [1/s]

@@ -1,4 +1,4 @@
-// Valves, two-stage Windkessel and prescribed atrial pressure (MODELS.md section 2), shared by the
+// Valves, two-stage Windkessel and prescribed atrial pressure (docs/models.md section 2), shared by the
 // lumped sphere, the regional lumped ventricle and the 3D model. After Caruel et al. 2014
 // (Biomech Model Mechanobiol 13:897, section 2.3) and Sainte-Marie et al. 2006.
 //

@@ -1,6 +1,6 @@
 // AHA 17-segment labels, cavity volume and regional volumes of the left ventricle.
 //
-// AHA segments (Cerqueira et al. 2002, Circulation 105:539; MODELS.md s.5). The long axis runs
+// AHA segments (Cerqueira et al. 2002, Circulation 105:539; docs/models.md s.5). The long axis runs
 // from the endocardial apex to the centre of the endocardial base ring; the cavity length L is
 // cut in equal thirds: basal (1-6), mid (7-12), apical (13-16); 17 is the apical cap, by default
 // the wall beyond the endocardial apex (Cerqueira: "the area beyond the end of the cavity").

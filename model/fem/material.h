@@ -63,7 +63,7 @@ class Guccione final : public Material {
   GuccioneParameters p_;
 };
 
-// Mooney-Rivlin on the isochoric invariants (the thesis law, MODELS.md s.4):
+// Mooney-Rivlin on the isochoric invariants (the thesis law, docs/models.md s.4):
 //   W = c1 (J^-2/3 I1 - 3) + c2 (J^-4/3 I2 - 3); the volumetric penalty kappa/2 (J - 1)^2 is the
 // mixed formulation's bulk modulus (MechanicsOptions::bulk_modulus).
 struct MooneyRivlinParameters {

@@ -81,7 +81,7 @@ struct EllipsoidGeometry {
   double r_long_epi = 20e-3;    // [m]
   double z_base = 5e-3;         // [m] base plane
 
-  // Human-sized variant (MODELS.md s.4): endo 25/45 mm, epi 35/55 mm, base plane 5 mm x 45/17.
+  // Human-sized variant (docs/models.md s.4): endo 25/45 mm, epi 35/55 mm, base plane 5 mm x 45/17.
   static EllipsoidGeometry human();
   std::string validate() const;
 

@@ -1,6 +1,6 @@
 // The regional lumped ventricle: N wall patches on one sphere (MultiPatch principle, Walmsley et
 // al. 2015, "Fast simulation of mechanical heterogeneity in the electrically asynchronous heart
-// using the MultiPatch module", PLoS Comput Biol 11:e1004284; MODELS.md section 3).
+// using the MultiPatch module", PLoS Comput Biol 11:e1004284; docs/models.md section 3).
 //
 // All patches share one membrane tension and one curvature. Patch p has a reference area share
 // w_p = A0_p / A0 (sum 1), its own areal stretch C_p, BCS active state (e_c, k_c, tau_c),
@@ -29,7 +29,7 @@
 // same row scaling and stopping test, on the sphere's beat-local time grid, with
 // dC_p/dt = 2 s (dy/dt / R0) c_p + s^2 (c_p - c_p^n)/h. One patch agrees with LumpedSphere to
 // about 1e-11 relative over a periodic run (the Newton tolerance, not bitwise: the test allows 1e-9).
-// Limits: no real tethering between patches (MODELS.md s.3); the geometry of the segments (area
+// Limits: no real tethering between patches (docs/models.md s.3); the geometry of the segments (area
 // shares, activation delays) comes from a truncated ellipsoid, the mechanics from the sphere.
 #pragma once
 
@@ -73,7 +73,7 @@ struct RegionalOptions {
 const std::vector<std::string>& aha17_segment_names();
 
 // Endocardial area shares of the 17 segments on the human-sized truncated prolate ellipsoid of
-// MODELS.md s.4 (endocardium r_s 25 mm, r_l 45 mm, base plane z = 13.2 mm): the cavity length L
+// docs/models.md s.4 (endocardium r_s 25 mm, r_l 45 mm, base plane z = 13.2 mm): the cavity length L
 // from apex to base is cut into basal, mid and apical thirds (Cerqueira 2002), the apical third
 // losing a cap of height L/12 to segment 17; rings split 6 x 60 deg (basal, mid) and 4 x 90 deg
 // (apical). Result: basal 0.0615 each, mid 0.0589, apical 0.0550, apex 0.0573 (basal 37 %, mid
@@ -81,11 +81,11 @@ const std::vector<std::string>& aha17_segment_names();
 std::vector<double> aha17_area_shares();
 
 // Activation times [s] of the 17 segments for a pattern (kSynchronous, kLbbb, kPacing).
-//  kLbbb: a simplified septal-to-lateral sequence (MODELS.md s.3): the wave starts at a septal
+//  kLbbb: a simplified septal-to-lateral sequence (docs/models.md s.3): the wave starts at a septal
 //    breakthrough (mid septum, between segments 8 and 9, after right-to-left transseptal
 //    conduction) and spreads along the wall; T_d = lbbb_duration (path - shortest) / (longest -
 //    shortest), so the mid septum is first (0) and the basal (infero)lateral wall last,
-//    lbbb_duration later (MODELS.md s.7: total LV activation >= 130-150 ms with LBBB).
+//    lbbb_duration later (docs/models.md s.7: total LV activation >= 130-150 ms with LBBB).
 //  kPacing: T_d = path from the paced segment's centre / conduction_velocity.
 // Path lengths on the ellipsoid above: meridian arc between the two ring heights combined with the
 // circumferential arc at the mean ring radius, sqrt(ds_meridian^2 + (r_mean dphi)^2).

@@ -1,7 +1,7 @@
 // What the lumped sphere (sphere.h) and the regional ventricle (regional.h) share: the thin
 // spherical shell's global parameters, passive law, cavity volume and initial equilibrium, the
 // beat-local time grid, the Newton scaling, step cutting, the periodic-run loop, and the channel
-// and state names common to both (MODELS.md s.2-3). One place, so that the one-patch regional
+// and state names common to both (docs/models.md s.2-3). One place, so that the one-patch regional
 // model keeps stepping exactly like the sphere.
 #pragma once
 
@@ -49,9 +49,9 @@ struct Shell {
 };
 Shell unpack(const Eigen::Ref<const Eigen::VectorXd>& theta, const std::vector<int>& global);
 
-// Passive stress Sigma = 2 dW/dC and dSigma/dC (MODELS.md s.2): Mooney-Rivlin
+// Passive stress Sigma = 2 dW/dC and dSigma/dC (docs/models.md s.2): Mooney-Rivlin
 // W = c1 (J1 - 3) + c2 (J2 - 3) plus the exponential stiffening named as the alternative in
-// MODELS.md s.2, W_exp = c_exp (exp(b_exp (J1 - 3)^2) - 1), J1 = 2C + C^-2. Alone, Mooney-Rivlin
+// docs/models.md s.2, W_exp = c_exp (exp(b_exp (J1 - 3)^2) - 1), J1 = 2C + C^-2. Alone, Mooney-Rivlin
 // gives an end-diastolic pressure-volume curve that flattens at large volumes (P ~ linear in R),
 // which makes the filling volume ill-determined; the exponential term gives the steep one.
 inline void passive_stress(const Shell& m, double C, double& S, double& dS_dC) {

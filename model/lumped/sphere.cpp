@@ -1,4 +1,4 @@
-// The lumped BCS sphere (Caruel et al. 2014, section 2.2, "0D model"; MODELS.md section 2).
+// The lumped BCS sphere (Caruel et al. 2014, section 2.2, "0D model"; docs/models.md section 2).
 //
 // Unknowns per step, all at t^{n+1}: x = (y, v = dy/dt, P_v, P_ar, P_d, e_c, k_c, tau_c).
 // Backward Euler on every equation (first order, L-stable: the e_c relaxation has a time
@@ -220,7 +220,7 @@ std::string SphereOptions::validate() const {
 
 ParameterSpace LumpedSphere::default_parameters() {
   // Sources: [C14] Caruel et al. 2014 (Biomech Model Mechanobiol 13:897) and the CCMLC2014-like
-  // working set of MODELS.md s.2; [T] tuned so that the healthy beat meets MODELS.md s.7.
+  // working set of docs/models.md s.2; [T] tuned so that the healthy beat meets docs/models.md s.7.
   std::vector<Parameter> p(kNumParams);
   // family: the parameter's role (model/registry.h lists the vocabulary).
   auto set = [&](int i, const char* unit, double nominal, double lo, double hi, const char* doc) {
@@ -260,7 +260,7 @@ ParameterSpace LumpedSphere::default_parameters() {
       "length-dependent activation gain dn0/de_c; 0 = classical n0 = 1 (Caruel n0 unverified)");
   set(kN0Emax, "1", 0.0, -0.5, 0.5, "contractile strain where n0 reaches 1 (if n0_slope > 0)");
   set(kCexp, "Pa", 30.0, 0.0, 1e5,
-      "exponential passive stiffening (MODELS.md s.2) [T: static EDP 5.5/7.8/13.5 mmHg at "
+      "exponential passive stiffening (docs/models.md s.2) [T: static EDP 5.5/7.8/13.5 mmHg at "
       "140/160/180 mL]");
   set(kBexp, "1", 1.0, 0.0, 50.0, "exponent b_exp of the passive stiffening (J1 - 3)^2 [T]");
   return ParameterSpace(std::move(p));

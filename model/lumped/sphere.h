@@ -1,5 +1,5 @@
 // The lumped (0D) BCS ventricle: a thin spherical shell (Caruel et al. 2014, Biomech Model
-// Mechanobiol 13:897) coupled to valves and a two-stage Windkessel. MODELS.md sections 1-2.
+// Mechanobiol 13:897) coupled to valves and a two-stage Windkessel. docs/models.md sections 1-2.
 #pragma once
 
 #include "model/simulator.h"

@@ -65,7 +65,7 @@ TEST(SigmaPoints, SimplexIsRegularWithRadiusSqrtPAndEqualWeights) {
   }
 }
 
-// y = x^2, x ~ N(m, s^2): E y = m^2 + s^2, Var y = 4 m^2 s^2 + 2 s^4 (ESTIMATION.md s.2).
+// y = x^2, x ~ N(m, s^2): E y = m^2 + s^2, Var y = 4 m^2 s^2 + 2 s^4 (docs/estimation.md s.2).
 struct Moments {
   double mean;
   double var;

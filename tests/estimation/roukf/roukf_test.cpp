@@ -259,7 +259,7 @@ TEST(Roukf, OneAnalysisWithSimplexPointsEqualsTheUnscentedTransformUpdate) {
   const RoukfSummary s = run_roukf(sim, prior, data, o);
   ASSERT_TRUE(s.ok()) << s.message;
 
-  // Direct UT (ESTIMATION.md s.3) on the augmented state from the same prior.
+  // Direct UT (docs/estimation.md s.3) on the augmented state from the same prior.
   const SigmaPoints sp = make_sigma_points(2, SigmaOptions{});
   VectorXd mean(5);
   mean << sim.y0, 0.0, 0.0;

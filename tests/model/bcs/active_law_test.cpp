@@ -105,7 +105,7 @@ TEST(ActiveLaw, CondensedTangentIsTheDerivativeOfTheCondensedStress) {
 }
 
 // Held at a fixed strain with u = +k_ATP for long, the law settles at tau_c = sigma0, k_c = k0
-// (MODELS.md s.1 with de_c/dt = 0), and the series element carries
+// (docs/models.md s.1 with de_c/dt = 0), and the series element carries
 // sigma_1D = tau_c (1 + 2 e_c)/(1 + 2 e).
 TEST(ActiveLaw, IsometricContractionSettlesAtSigma0AndK0) {
   ActiveParameters p;

@@ -11,7 +11,7 @@ namespace sigmaheart::model::fem {
 namespace {
 
 // Cavity volume of the endocardial ellipsoid between the planes z1 < z2:
-// pi r_s^2 int (1 - z^2 / r_l^2) dz (MODELS.md s.5).
+// pi r_s^2 int (1 - z^2 / r_l^2) dz (docs/models.md s.5).
 double slab(const EllipsoidGeometry& g, double z1, double z2) {
   const double rs = g.r_short_endo, rl = g.r_long_endo;
   return std::numbers::pi * rs * rs * ((z2 - z1) - (z2 * z2 * z2 - z1 * z1 * z1) / (3 * rl * rl));
