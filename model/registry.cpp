@@ -54,19 +54,28 @@ void ModelRegistry::add(ModelSetup setup) {
   setups_.push_back(std::move(setup));
 }
 
-const ModelSetup* ModelRegistry::find(const std::string& name) const {
-  for (const auto& s : setups_) {
-    if (s.name == name) return &s;
+namespace {
+// Lookup by name and the list of names, for the registry's models and a model's presets.
+template <class T>
+const T* find_named(const std::vector<T>& items, const std::string& name) {
+  for (const auto& item : items) {
+    if (item.name == name) return &item;
   }
   return nullptr;
 }
 
-std::vector<std::string> ModelRegistry::names() const {
+template <class T>
+std::vector<std::string> names_of(const std::vector<T>& items) {
   std::vector<std::string> out;
-  out.reserve(setups_.size());
-  for (const auto& s : setups_) out.push_back(s.name);
+  out.reserve(items.size());
+  for (const auto& item : items) out.push_back(item.name);
   return out;
 }
+}  // namespace
+
+const ModelSetup* ModelRegistry::find(const std::string& name) const { return find_named(setups_, name); }
+
+std::vector<std::string> ModelRegistry::names() const { return names_of(setups_); }
 
 const ModelRegistry& builtin_models() {
   static const ModelRegistry registry = [] {
@@ -78,16 +87,9 @@ const ModelRegistry& builtin_models() {
 }
 
 const Preset* ModelSetup::find_preset(const std::string& preset) const {
-  for (const auto& p : presets) {
-    if (p.name == preset) return &p;
-  }
-  return nullptr;
+  return find_named(presets, preset);
 }
 
-std::vector<std::string> ModelSetup::preset_names() const {
-  std::vector<std::string> out;
-  for (const auto& p : presets) out.push_back(p.name);
-  return out;
-}
+std::vector<std::string> ModelSetup::preset_names() const { return names_of(presets); }
 
 }  // namespace sigmaheart::model
