@@ -7,6 +7,7 @@
 #include "estimation/parallel/communicator.h"
 
 #include <CLI/CLI.hpp>
+#include <omp.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
@@ -176,6 +177,13 @@ void add_study_command(CLI::App& app, CommandContext& ctx, const std::string& na
 
 std::filesystem::path study_output(const StudyOptions& o, const std::string& kind) {
   return !o.output.empty() ? o.output : default_output_path(o.config, kind);
+}
+
+int set_up_study_ensemble(const StudyOptions& o, const CommandContext& ctx, estimation::EnsembleOptions& ensemble) {
+  if (o.threads > 0) ensemble.threads = o.threads;
+  ensemble.communicator = ctx.comm;  // members spread over the ranks, if several
+  if (ensemble.threads == 1) ensemble.backend = estimation::Backend::kSerial;
+  return ensemble.threads > 0 ? ensemble.threads : omp_get_max_threads();
 }
 
 int stopped_early(const CommandContext& ctx, const std::string& message) {

@@ -11,7 +11,6 @@
 #include "estimation/forward_model.h"
 #include "estimation/mpi.h"
 
-#include <omp.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -51,10 +50,7 @@ int run_calibrate(const StudyOptions& o, CommandContext& ctx) {
   const bool root = ctx.root();
   const int ranks = ctx.ranks;
   estimation::UtOptions options = problem.options;
-  if (o.threads > 0) options.ensemble.threads = o.threads;
-  options.ensemble.communicator = ctx.comm;  // members spread over the ranks, if several
-  if (options.ensemble.threads == 1) options.ensemble.backend = estimation::Backend::kSerial;
-  const int threads = options.ensemble.threads > 0 ? options.ensemble.threads : omp_get_max_threads();
+  const int threads = set_up_study_ensemble(o, ctx, options.ensemble);
   ProgressLine progress(ctx.err, "calibrate", root);
   options.progress = ut_progress(progress);
 

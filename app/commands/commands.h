@@ -10,6 +10,7 @@
 
 #include "app/config.h"
 #include "app/io/results.h"
+#include "estimation/ensemble.h"
 #include "estimation/parallel/communicator.h"
 
 #include <CLI/CLI.hpp>
@@ -101,6 +102,11 @@ void add_study_command(CLI::App& app, CommandContext& ctx, const std::string& na
 
 // The results file of an estimation command: o.output, else default_output_path(o.config, kind).
 std::filesystem::path study_output(const StudyOptions& o, const std::string& kind);
+
+// The ensemble of calibrate and personalize: --threads (o.threads > 0) over the config's count,
+// the members spread over ctx's ranks, the serial backend on one thread. Returns the thread count
+// (the config's, else omp_get_max_threads()) for the log and the provenance.
+int set_up_study_ensemble(const StudyOptions& o, const CommandContext& ctx, estimation::EnsembleOptions& ensemble);
 
 // The end of a run whose estimator failed: kExitRuntimeFailure off the root rank (which printed
 // nothing); on the root rank throws RunFailure(message).

@@ -14,7 +14,6 @@
 #include "estimation/mpi.h"
 #include "estimation/roukf/roukf.h"
 
-#include <omp.h>
 #include <spdlog/spdlog.h>
 
 #include <memory>
@@ -54,10 +53,7 @@ int run_personalize(const StudyOptions& o, CommandContext& ctx) {
         "steppable simulator (lumped-regional, lumped-sphere)");
   }
   estimation::RoukfOptions& filter = problem.filter;
-  if (o.threads > 0) filter.ensemble.threads = o.threads;
-  filter.ensemble.communicator = ctx.comm;  // members spread over the ranks, if several
-  if (filter.ensemble.threads == 1) filter.ensemble.backend = estimation::Backend::kSerial;
-  const int threads = filter.ensemble.threads > 0 ? filter.ensemble.threads : omp_get_max_threads();
+  const int threads = set_up_study_ensemble(o, ctx, filter.ensemble);
   const int frames = static_cast<int>(problem.data.times.size());
   const bool root = ctx.root();
 

@@ -41,6 +41,14 @@ std::string validate_prior(const Prior& prior, const ForwardModel& model) {
   return {};
 }
 
+void check_study_inputs(const std::string& study, const Prior& prior, const ForwardModel& model,
+                        const std::string& options_message) {
+  if (const std::string m = validate_prior(prior, model); !m.empty()) {
+    throw std::invalid_argument(study + ": " + m);
+  }
+  if (!options_message.empty()) throw std::invalid_argument(options_message);
+}
+
 std::vector<std::string> output_names(const ForwardModel& model) {
   std::vector<std::string> names;
   for (const auto& c : model.outputs()) names.push_back(c.name);

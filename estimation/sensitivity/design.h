@@ -60,6 +60,10 @@ struct StudySummary {
 // Empty when the prior's parameters are uniform, valid and match the model's inputs (count and
 // names), else a message.
 std::string validate_prior(const Prior& prior, const ForwardModel& model);
+// The input checks every study starts with: throws std::invalid_argument with `study` + ": " +
+// the validate_prior() message, else with `options_message` (the options' validate()) if not empty.
+void check_study_inputs(const std::string& study, const Prior& prior, const ForwardModel& model,
+                        const std::string& options_message);
 
 std::vector<std::string> output_names(const ForwardModel& model);
 

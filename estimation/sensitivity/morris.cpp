@@ -6,7 +6,6 @@
 #include <limits>
 #include <numeric>
 #include <sstream>
-#include <stdexcept>
 #include <tuple>
 
 namespace sigmaheart::estimation::sensitivity {
@@ -96,10 +95,7 @@ DesignLayout morris_layout(int trajectories, int p) {
 }
 
 MorrisSummary run_morris(const ForwardModel& model, const Prior& prior, const MorrisOptions& options) {
-  if (const std::string m = validate_prior(prior, model); !m.empty()) {
-    throw std::invalid_argument("Morris study: " + m);
-  }
-  if (const std::string m = options.validate(); !m.empty()) throw std::invalid_argument(m);
+  check_study_inputs("Morris study", prior, model, options.validate());
   const int p = prior.size();
   const int r = options.trajectories;
 

@@ -9,7 +9,6 @@
 #include <limits>
 #include <numeric>
 #include <sstream>
-#include <stdexcept>
 
 namespace sigmaheart::estimation::sensitivity {
 
@@ -60,10 +59,7 @@ DesignLayout oat_layout(const std::vector<std::string>& names) {
 }
 
 OatSummary run_oat(const ForwardModel& model, const Prior& prior, const OatOptions& options) {
-  if (const std::string m = validate_prior(prior, model); !m.empty()) {
-    throw std::invalid_argument("one-at-a-time study: " + m);
-  }
-  if (const std::string m = options.validate(); !m.empty()) throw std::invalid_argument(m);
+  check_study_inputs("one-at-a-time study", prior, model, options.validate());
   const int p = prior.size();
 
   OatSummary r;

@@ -530,10 +530,10 @@ std::vector<Channel> RegionalVentricle::state_layout() const {
     s.push_back({"c_" + two_digits(p + 1), "1", "relative areal stretch C_p / s^2 of patch " + two_digits(p + 1)});
   }
   for (int p = 0; p < n_; ++p) {
-    const std::string xx = two_digits(p + 1);
-    s.push_back({"e_c_" + xx, "1", "contractile-element strain"});
-    s.push_back({"k_c_" + xx, "Pa", "active stiffness"});
-    s.push_back({"tau_c_" + xx, "Pa", "contractile-element active stress"});
+    std::string suffix = "_";  // not "_" + std::string: GCC 12 -Wrestrict false positive at -O3
+    suffix += two_digits(p + 1);
+    const std::vector<Channel> active = shell::active_state_entries(suffix);
+    s.insert(s.end(), active.begin(), active.end());
   }
   s.push_back(shell::last_open_valve_entry());
   return s;

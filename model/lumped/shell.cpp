@@ -111,6 +111,14 @@ Channel last_open_valve_entry() {
           "0 mitral or 2 aortic: the valve open last; only labels the closed phases (1 or 3)"};
 }
 
+std::vector<Channel> active_state_entries(const std::string& suffix) {
+  return {
+      {"e_c" + suffix, "1", "contractile-element strain"},
+      {"k_c" + suffix, "Pa", "active stiffness"},
+      {"tau_c" + suffix, "Pa", "contractile-element active stress"},
+  };
+}
+
 std::vector<Channel> circulation_channels() {
   return {
       {"V_lv", "m^3", "left-ventricular cavity volume 4/3 pi R^3"},

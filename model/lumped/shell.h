@@ -115,6 +115,9 @@ double circulation_rows(const Shell& m, const Context& c, double y, double Pv, d
 
 std::vector<Channel> state_head();        // the StateEntry entries, with units
 Channel last_open_valve_entry();          // the diagnostic flag that ends every state
+// The active (contractile-element) state entries e_c, k_c, tau_c with `suffix` appended to each
+// name: "" for the sphere, "_07" for patch 7 of the regional model.
+std::vector<Channel> active_state_entries(const std::string& suffix);
 std::vector<Channel> circulation_channels();  // V_lv, P_lv, P_ar, P_at, q_ar, q_at, phase, P_d
 
 // The values of circulation_channels() for a state (its last entry is last_open_valve).

@@ -277,11 +277,10 @@ LumpedSphere::LumpedSphere(SphereOptions options, ParameterSpace parameters)
 
 std::vector<Channel> LumpedSphere::channels() const {
   std::vector<Channel> c = shell::circulation_channels();
+  c.push_back({"e_fibre", "1", "fibre Green-Lagrange strain e = (C - 1)/2"});
+  const std::vector<Channel> active = shell::active_state_entries("");
+  c.insert(c.end(), active.begin(), active.end());
   c.insert(c.end(), {
-      {"e_fibre", "1", "fibre Green-Lagrange strain e = (C - 1)/2"},
-      {"e_c", "1", "contractile-element strain"},
-      {"k_c", "Pa", "active stiffness"},
-      {"tau_c", "Pa", "contractile-element active stress"},
       {"sigma_act", "Pa", "active fibre stress Es (e - e_c)/(1 + 2 e_c)^2"},
       {"viscous_power", "W/m^3",
        "passive viscous dissipation per unit reference wall volume, Sigma_vis (dC/dt)/2 >= 0"},
@@ -291,12 +290,9 @@ std::vector<Channel> LumpedSphere::channels() const {
 
 std::vector<Channel> LumpedSphere::state_layout() const {
   std::vector<Channel> s = shell::state_head();
-  s.insert(s.end(), {
-      {"e_c", "1", "contractile-element strain"},
-      {"k_c", "Pa", "active stiffness"},
-      {"tau_c", "Pa", "contractile-element active stress"},
-      shell::last_open_valve_entry(),
-  });
+  const std::vector<Channel> active = shell::active_state_entries("");
+  s.insert(s.end(), active.begin(), active.end());
+  s.push_back(shell::last_open_valve_entry());
   return s;
 }
 

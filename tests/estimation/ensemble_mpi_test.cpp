@@ -3,6 +3,7 @@
 #include "estimation/ensemble.h"
 #include "estimation/mpi.h"
 #include "estimation/ut_calibration.h"
+#include "tests/support/function_model.h"
 
 #include <gtest/gtest.h>
 
@@ -16,22 +17,17 @@
 namespace sigmaheart::estimation {
 namespace {
 
-class Toy final : public ForwardModel {
- public:
-  int input_size() const override { return 2; }
-  std::vector<std::string> input_names() const override { return {"t0", "t1"}; }
-  std::vector<model::Channel> outputs() const override {
-    return {{"o0", "1", ""}, {"o1", "1", ""}, {"o2", "1", ""}};
-  }
-  model::Status evaluate(const Eigen::Ref<const Eigen::VectorXd>& t,
-                         Eigen::Ref<Eigen::VectorXd> z) override {
-    if (t(0) < -5) return model::Status::Error(model::StatusCode::kDiverged, "rank-independent failure");
-    if (t(0) > 50) throw std::runtime_error("thrown on some rank");
-    z << std::exp(0.3 * t(0)), std::sin(t(0) * t(1)), t(0) - t(1) * t(1);
-    return model::Status::Ok();
-  }
-  std::unique_ptr<ForwardModel> clone() const override { return std::make_unique<Toy>(); }
-};
+using sigmaheart::testing::FunctionModel;
+
+FunctionModel toy_model() {
+  return FunctionModel({"t0", "t1"}, {{"o0", "1", ""}, {"o1", "1", ""}, {"o2", "1", ""}},
+                       [](const Eigen::VectorXd& t, Eigen::Ref<Eigen::VectorXd> z) {
+                         if (t(0) < -5) return model::Status::Error(model::StatusCode::kDiverged, "rank-independent failure");
+                         if (t(0) > 50) throw std::runtime_error("thrown on some rank");
+                         z << std::exp(0.3 * t(0)), std::sin(t(0) * t(1)), t(0) - t(1) * t(1);
+                         return model::Status::Ok();
+                       });
+}
 
 EnsembleOptions make(Backend b, int threads) {
   EnsembleOptions o;
@@ -45,7 +41,7 @@ TEST(EnsembleMpi, EveryRankHoldsTheSerialResultsBitForBit) {
   for (int i = 0; i < 13; ++i) thetas.row(i) << 0.1 * i - 0.3, std::cos(i);
   thetas(2, 0) = -9;
   thetas(11, 0) = 99;
-  const Toy toy;
+  const FunctionModel toy = toy_model();
   Ensemble mpi(toy, make(Backend::kMpi, 2));
   Ensemble serial(toy, make(Backend::kSerial, 0));
   const EnsembleResult a = mpi.evaluate(thetas);
@@ -61,7 +57,7 @@ TEST(EnsembleMpi, EveryRankHoldsTheSerialResultsBitForBit) {
 }
 
 TEST(EnsembleMpi, UtCalibrationGivesTheSameEstimateOnEveryRankAsSerially) {
-  const Toy toy;
+  const FunctionModel toy = toy_model();
   observers::ObservationSet obs;
   obs.names = {"o0", "o1", "o2"};
   obs.units = {"1", "1", "1"};
@@ -87,7 +83,7 @@ parallel::Communicator& world() { return parallel::world_communicator(); }
 TEST(EnsembleMpi, MembersOfUnequalCostGiveTheSerialBitsWithEitherHandOut) {
   Eigen::MatrixXd thetas(11, 2);
   for (int i = 0; i < 11; ++i) thetas.row(i) << 0.2 * i, std::sin(i);
-  const Toy toy;
+  const FunctionModel toy = toy_model();
   auto task = [&thetas](Ensemble& e) {
     return [&e, &thetas](int m, int w, Eigen::Ref<Eigen::VectorXd> row) {
       // Member 0 is ten times dearer than the others: ranks finish at different times.
@@ -110,7 +106,7 @@ TEST(EnsembleMpi, MembersOfUnequalCostGiveTheSerialBitsWithEitherHandOut) {
 }
 
 TEST(EnsembleMpi, MoreRanksThanMembersAndNoMembersAreFine) {
-  const Toy toy;
+  const FunctionModel toy = toy_model();
   EnsembleOptions o = make(Backend::kSerial, 0);
   o.communicator = &world();
   Ensemble e(toy, o);
@@ -123,7 +119,7 @@ TEST(EnsembleMpi, MoreRanksThanMembersAndNoMembersAreFine) {
 }
 
 TEST(EnsembleMpi, AProgressFailureOnOneRankIsRethrownOnEveryRank) {
-  const Toy toy;
+  const FunctionModel toy = toy_model();
   EnsembleOptions o = make(Backend::kSerial, 0);
   o.communicator = &world();
   o.schedule = parallel::Schedule::kFixed;  // every rank gets members, so the throwing one runs

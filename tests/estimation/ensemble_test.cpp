@@ -1,5 +1,7 @@
 #include "estimation/ensemble.h"
 
+#include "tests/support/function_model.h"
+
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -14,30 +16,23 @@
 namespace sigmaheart::estimation {
 namespace {
 
+using sigmaheart::testing::FunctionModel;
+
 // A cheap nonlinear map with deliberate failures: theta0 < 0 is a failed run, theta0 > 100
 // throws, theta1 > 50 returns NaN.
-class ToyModel final : public ForwardModel {
- public:
-  int input_size() const override { return 2; }
-  std::vector<std::string> input_names() const override { return {"a", "b"}; }
-  std::vector<model::Channel> outputs() const override {
-    return {{"z0", "1", ""}, {"z1", "1", ""}, {"z2", "1", ""}};
-  }
-  model::Status evaluate(const Eigen::Ref<const Eigen::VectorXd>& theta,
-                         Eigen::Ref<Eigen::VectorXd> z) override {
-    ++calls;
-    if (theta(0) < 0) return model::Status::Error(model::StatusCode::kDiverged, "negative a");
-    if (theta(0) > 100) throw std::runtime_error("a too large");
-    z(0) = std::sin(theta(0)) * std::exp(0.1 * theta(1));
-    double acc = 0;
-    for (int k = 1; k <= 200; ++k) acc += std::cos(k * theta(0) + theta(1)) / k;
-    z(1) = acc;
-    z(2) = theta(1) > 50 ? std::numeric_limits<double>::quiet_NaN() : theta(0) * theta(1);
-    return model::Status::Ok();
-  }
-  std::unique_ptr<ForwardModel> clone() const override { return std::make_unique<ToyModel>(); }
-  int calls = 0;
-};
+FunctionModel toy_model() {
+  return FunctionModel({"a", "b"}, {{"z0", "1", ""}, {"z1", "1", ""}, {"z2", "1", ""}},
+                       [](const Eigen::VectorXd& theta, Eigen::Ref<Eigen::VectorXd> z) {
+                         if (theta(0) < 0) return model::Status::Error(model::StatusCode::kDiverged, "negative a");
+                         if (theta(0) > 100) throw std::runtime_error("a too large");
+                         z(0) = std::sin(theta(0)) * std::exp(0.1 * theta(1));
+                         double acc = 0;
+                         for (int k = 1; k <= 200; ++k) acc += std::cos(k * theta(0) + theta(1)) / k;
+                         z(1) = acc;
+                         z(2) = theta(1) > 50 ? std::numeric_limits<double>::quiet_NaN() : theta(0) * theta(1);
+                         return model::Status::Ok();
+                       });
+}
 
 Eigen::MatrixXd design(int members) {
   Eigen::MatrixXd t(members, 2);
@@ -64,7 +59,7 @@ bool bitwise_equal(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
 }
 
 TEST(Ensemble, OneAndTwoThreadsGiveBitwiseIdenticalResultsIncludingFailures) {
-  const ToyModel proto;
+  const FunctionModel proto = toy_model();
   const Eigen::MatrixXd thetas = design(23);
   Ensemble serial(proto, options(Backend::kSerial));
   Ensemble one(proto, options(Backend::kThreads, 1));
@@ -88,7 +83,7 @@ TEST(Ensemble, OneAndTwoThreadsGiveBitwiseIdenticalResultsIncludingFailures) {
   EXPECT_EQ(r2.status[9].code, model::StatusCode::kNonFinite);
   EXPECT_TRUE(r2.Z.row(7).array().isNaN().all());
   // A good member holds the value of a direct evaluation.
-  ToyModel direct;
+  FunctionModel direct = toy_model();
   Eigen::VectorXd z(3);
   ASSERT_TRUE(direct.evaluate(thetas.row(5).transpose(), z).ok());
   EXPECT_NEAR(r2.Z(5, 0), z(0), 0.0);
@@ -96,7 +91,7 @@ TEST(Ensemble, OneAndTwoThreadsGiveBitwiseIdenticalResultsIncludingFailures) {
 }
 
 TEST(Ensemble, ProgressCountsEveryMemberOnce) {
-  const ToyModel proto;
+  const FunctionModel proto = toy_model();
   int calls = 0;
   int last = 0;
   EnsembleOptions opt = options(Backend::kThreads, 2);
@@ -112,7 +107,7 @@ TEST(Ensemble, ProgressCountsEveryMemberOnce) {
 }
 
 TEST(Ensemble, ForEachRunsEveryMemberOnceAndRethrowsTheFirstError) {
-  const ToyModel proto;
+  const FunctionModel proto = toy_model();
   Ensemble e(proto, options(Backend::kThreads, 2));
   std::vector<double> out(17, 0.0);
   e.for_each(17, [&](int m, int w) {
@@ -135,7 +130,7 @@ TEST(Ensemble, ForEachRunsEveryMemberOnceAndRethrowsTheFirstError) {
 }
 
 TEST(Ensemble, MapRowsFillsRowsAndTurnsFailuresIntoStatuses) {
-  const ToyModel proto;
+  const FunctionModel proto = toy_model();
   Ensemble e(proto, options(Backend::kThreads, 2));
   const EnsembleResult r = e.map_rows(6, 2, [](int m, int, Eigen::Ref<Eigen::VectorXd> row) {
     if (m == 2) return model::Status::Error(model::StatusCode::kTimeout, "slow");
@@ -148,7 +143,7 @@ TEST(Ensemble, MapRowsFillsRowsAndTurnsFailuresIntoStatuses) {
 }
 
 TEST(Ensemble, MpiBackendWithoutAnActiveSessionRunsAsOneRank) {
-  const ToyModel proto;
+  const FunctionModel proto = toy_model();
   EnsembleOptions opt = options(Backend::kMpi, 2);
   if (!mpi_compiled()) {
     EXPECT_FALSE(opt.validate().empty());
@@ -171,7 +166,7 @@ TEST(Ensemble, OptionsValidationNamesTheProblem) {
 // Members whose cost differs (member 0 sleeps longest): the dynamic hand-out gives the same bits
 // as the fixed split and as a serial run, whatever member finishes first.
 TEST(Ensemble, DynamicAndFixedHandOutGiveTheSerialResultsBitForBit) {
-  const ToyModel proto;
+  const FunctionModel proto = toy_model();
   const Eigen::MatrixXd thetas = design(17);
   EnsembleOptions dyn = options(Backend::kThreads, 3);
   EnsembleOptions fixed = dyn;
@@ -195,7 +190,7 @@ TEST(Ensemble, DynamicAndFixedHandOutGiveTheSerialResultsBitForBit) {
 }
 
 TEST(Ensemble, ACommunicatorOfOneRankKeepsMembersLocal) {
-  const ToyModel proto;
+  const FunctionModel proto = toy_model();
   parallel::SerialCommunicator one;
   EnsembleOptions opt = options(Backend::kThreads, 2);
   opt.communicator = &one;

@@ -1,5 +1,7 @@
 #include "estimation/ut_calibration.h"
 
+#include "tests/support/function_model.h"
+
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
@@ -13,42 +15,8 @@
 namespace sigmaheart::estimation {
 namespace {
 
-// GCC 12 warns (-Wrestrict, a false positive) on "literal" + std::string at -O3.
-std::string indexed(const char* prefix, int i) {
-  std::string s(prefix);
-  s += std::to_string(i);
-  return s;
-}
-
-using Map = std::function<model::Status(const Eigen::VectorXd& theta, Eigen::Ref<Eigen::VectorXd> z)>;
-
-// A forward model from a function; outputs named o0, o1, ...
-class FunctionModel final : public ForwardModel {
- public:
-  FunctionModel(int p, int m, Map f) : p_(p), m_(m), f_(std::move(f)) {}
-  int input_size() const override { return p_; }
-  std::vector<std::string> input_names() const override {
-    std::vector<std::string> n;
-    for (int j = 0; j < p_; ++j) n.push_back(indexed("t", j));
-    return n;
-  }
-  std::vector<model::Channel> outputs() const override {
-    std::vector<model::Channel> c;
-    for (int i = 0; i < m_; ++i) c.push_back({indexed("o", i), "1", ""});
-    return c;
-  }
-  model::Status evaluate(const Eigen::Ref<const Eigen::VectorXd>& theta,
-                         Eigen::Ref<Eigen::VectorXd> z) override {
-    return f_(theta, z);
-  }
-  std::unique_ptr<ForwardModel> clone() const override {
-    return std::make_unique<FunctionModel>(*this);
-  }
-
- private:
-  int p_, m_;
-  Map f_;
-};
+using sigmaheart::testing::FunctionModel;
+using sigmaheart::testing::indexed;
 
 observers::ObservationSet observations(const Eigen::VectorXd& y, const Eigen::MatrixXd& R) {
   observers::ObservationSet obs;

@@ -4,6 +4,7 @@
 // writes.
 #include "foreign_cases.h"
 #include "foreign_ode.h"
+#include "tests/support/expect_between.h"
 
 #include <gtest/gtest.h>
 
@@ -21,6 +22,8 @@
 
 namespace foreign {
 namespace {
+
+using sigmaheart::testing::expect_between;
 
 const std::vector<BenchCase>& cases() {
   static const auto c = bench_cases();
@@ -104,8 +107,7 @@ TEST_P(EveryCase, IsovolumicPhasesHoldVolume) {
   const double ivc = d[k_open].t;
   for (size_t k = 0; k < k_open; ++k) EXPECT_NEAR(d[k].V_lv, d.front().V_lv, 1e-9);
   EXPECT_GT(d[k_open - 1].P_lv, d.front().P_lv + 40.0);
-  EXPECT_GT(ivc, 0.015);
-  EXPECT_LT(ivc, 0.150);
+  expect_between(ivc, 0.015, 0.150, "isovolumic contraction");
 
   size_t k_ac = k_open;  // aortic closure
   while (k_ac < d.size() && d[k_ac].Q_av > 0.0) ++k_ac;
@@ -118,11 +120,9 @@ TEST_P(EveryCase, IsovolumicPhasesHoldVolume) {
   }
   EXPECT_LT(d[k_mo - 1].P_lv, d[k_ac].P_lv - 40.0);
   const double ivr = d[k_mo].t - d[k_ac].t;
-  EXPECT_GT(ivr, 0.030);
-  EXPECT_LT(ivr, 0.200);
+  expect_between(ivr, 0.030, 0.200, "isovolumic relaxation");
   const double ejection = d[k_ac].t - d[k_open].t;
-  EXPECT_GT(ejection, 0.20);  // LV ejection time ~0.25-0.33 s at 60-90 bpm
-  EXPECT_LT(ejection, 0.36);
+  expect_between(ejection, 0.20, 0.36, "ejection");  // LV ejection time ~0.25-0.33 s at 60-90 bpm
 }
 
 // The exported frames start at end-diastole, are evenly spread over one beat, and differ from
@@ -143,10 +143,8 @@ TEST_P(EveryCase, FramesAreOneBeatFromEndDiastoleWithStatedNoise) {
     sp += std::pow(noisy[k][2] - b.frames[k].P_lv, 2);
   }
   // sample std of 30 Gaussian deviates lies within [0.6, 1.4] x std with probability > 0.99
-  EXPECT_GT(std::sqrt(sv / 30.0), 0.6 * c.noise_V);
-  EXPECT_LT(std::sqrt(sv / 30.0), 1.4 * c.noise_V);
-  EXPECT_GT(std::sqrt(sp / 30.0), 0.6 * c.noise_P);
-  EXPECT_LT(std::sqrt(sp / 30.0), 1.4 * c.noise_P);
+  expect_between(std::sqrt(sv / 30.0), 0.6 * c.noise_V, 1.4 * c.noise_V, "volume noise");
+  expect_between(std::sqrt(sp / 30.0), 0.6 * c.noise_P, 1.4 * c.noise_P, "pressure noise");
 }
 
 INSTANTIATE_TEST_SUITE_P(ForeignBench, EveryCase,
@@ -203,22 +201,17 @@ TEST(ForeignBench, CasesMatchTheirTargetPhenotypes) {
     const Indices stiff = indices_of(run_beat(*make_circuit(find_case(model + "-stiff"))));
     SCOPED_TRACE(model);
     // healthy: Maceira 2006 CMR volumes; brachial-like peak pressure; normal EDP
-    EXPECT_GT(healthy.EDV, 120.0);
-    EXPECT_LT(healthy.EDV, 150.0);
-    EXPECT_GT(healthy.EF, 55.0);
-    EXPECT_LT(healthy.EF, 65.0);
-    EXPECT_GT(healthy.P_peak, 115.0);
-    EXPECT_LT(healthy.P_peak, 135.0);
-    EXPECT_GT(healthy.EDP, 5.0);
-    EXPECT_LT(healthy.EDP, 12.0);
+    expect_between(healthy.EDV, 120.0, 150.0, "healthy EDV");
+    expect_between(healthy.EF, 55.0, 65.0, "healthy EF");
+    expect_between(healthy.P_peak, 115.0, 135.0, "healthy P_peak");
+    expect_between(healthy.EDP, 5.0, 12.0, "healthy EDP");
     EXPECT_GE(healthy.heart_rate, 60.0);
     EXPECT_LE(healthy.heart_rate, 75.0);
     // atrial contraction adds late filling
     EXPECT_GT(healthy.EDV, no_atrial.EDV + 5.0);
     // reduced contractility: dilated, EF ~30 %
     EXPECT_GT(healthy.EF, reduced.EF + 20.0);
-    EXPECT_GT(reduced.EF, 25.0);
-    EXPECT_LT(reduced.EF, 35.0);
+    expect_between(reduced.EF, 25.0, 35.0, "reduced EF");
     EXPECT_GT(reduced.EDV, 180.0);
     EXPECT_GT(reduced.EDP, 12.0);
     // stiff wall + high afterload: preserved EF, high EDP, high peak pressure

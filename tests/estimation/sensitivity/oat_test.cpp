@@ -1,30 +1,27 @@
 #include "estimation/sensitivity/oat.h"
 
+#include "tests/support/function_model.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 
 namespace sh = sigmaheart::estimation::sensitivity;
-using sigmaheart::estimation::ForwardModel;
+using sigmaheart::testing::FunctionModel;
 namespace model = sigmaheart::model;
 
 namespace {
 
 // y1 = a^2 + 3 b, y2 = a b c; fails when c > 10.
-class Known final : public ForwardModel {
- public:
-  int input_size() const override { return 3; }
-  std::vector<std::string> input_names() const override { return {"a", "b", "c"}; }
-  std::vector<model::Channel> outputs() const override { return {{"y1", "1", ""}, {"y2", "1", ""}}; }
-  model::Status evaluate(const Eigen::Ref<const Eigen::VectorXd>& x,
-                         Eigen::Ref<Eigen::VectorXd> z) override {
-    if (x(2) > 10.0) return model::Status::Error(model::StatusCode::kDiverged, "c too large");
-    z(0) = x(0) * x(0) + 3.0 * x(1);
-    z(1) = x(0) * x(1) * x(2);
-    return model::Status::Ok();
-  }
-  std::unique_ptr<ForwardModel> clone() const override { return std::make_unique<Known>(); }
-};
+FunctionModel known() {
+  return FunctionModel({"a", "b", "c"}, {{"y1", "1", ""}, {"y2", "1", ""}},
+                       [](const Eigen::VectorXd& x, Eigen::Ref<Eigen::VectorXd> z) {
+                         if (x(2) > 10.0) return model::Status::Error(model::StatusCode::kDiverged, "c too large");
+                         z(0) = x(0) * x(0) + 3.0 * x(1);
+                         z(1) = x(0) * x(1) * x(2);
+                         return model::Status::Ok();
+                       });
+}
 
 sigmaheart::estimation::PriorParameter range(const char* name, double nominal, double lower,
                                              double upper) {
@@ -46,7 +43,7 @@ TEST(Oat, RelativeStudyGivesTheHandComputedDeltasAndElasticities) {
   // of y2 to every parameter: (2/10)/0.2 = 1.
   sh::OatOptions o;
   o.relative_change = 0.1;
-  const auto r = sh::run_oat(Known(), ranges(), o);
+  const auto r = sh::run_oat(known(), ranges(), o);
   ASSERT_TRUE(r.ok()) << r.report();
   EXPECT_EQ(r.thetas.rows(), 7);
   EXPECT_NEAR(r.z_nominal(0), 7.0, 1e-12);
@@ -72,7 +69,7 @@ TEST(Oat, RelativeStudyGivesTheHandComputedDeltasAndElasticities) {
 TEST(Oat, RangeStudyMovesEachParameterToItsBoundsAndReportsFailedRuns) {
   sh::OatOptions o;
   o.mode = sh::OatMode::kRange;
-  const auto r = sh::run_oat(Known(), ranges(), o);
+  const auto r = sh::run_oat(known(), ranges(), o);
   EXPECT_TRUE(r.ok());
   EXPECT_DOUBLE_EQ(r.theta_low(0), 0.5);
   EXPECT_DOUBLE_EQ(r.theta_high(2), 20.0);
@@ -90,7 +87,7 @@ TEST(Oat, RangeStudyMovesEachParameterToItsBoundsAndReportsFailedRuns) {
 TEST(Oat, AFailedNominalRunInvalidatesTheStudy) {
   auto rr = ranges();
   rr.parameters[2].theta_nominal = 15.0;
-  const auto r = sh::run_oat(Known(), rr, sh::OatOptions{});
+  const auto r = sh::run_oat(known(), rr, sh::OatOptions{});
   EXPECT_FALSE(r.ok());
   EXPECT_EQ(r.status, sh::StudyStatus::kFailedNominal);
   EXPECT_TRUE(std::isnan(r.delta_low(0, 0)));

@@ -1,6 +1,7 @@
 #include "estimation/sensitivity/sobol_indices.h"
 
 #include "estimation/sensitivity/test_functions.h"
+#include "tests/support/function_model.h"
 
 #include <gtest/gtest.h>
 
@@ -8,7 +9,7 @@
 
 namespace sh = sigmaheart::estimation::sensitivity;
 using sigmaheart::estimation::Backend;
-using sigmaheart::estimation::ForwardModel;
+using sigmaheart::testing::FunctionModel;
 namespace model = sigmaheart::model;
 
 namespace {
@@ -25,42 +26,24 @@ sh::SobolOptions options(int N, std::uint64_t seed = 2024) {
 }
 
 // Ishigami, but runs with x1 > limit fail (a simulator that diverges in part of the space).
-class FailingIshigami final : public ForwardModel {
- public:
-  explicit FailingIshigami(double limit) : limit_(limit) {}
-  int input_size() const override { return 3; }
-  std::vector<std::string> input_names() const override { return {"x1", "x2", "x3"}; }
-  std::vector<model::Channel> outputs() const override { return inner_.outputs(); }
-  model::Status evaluate(const Eigen::Ref<const Eigen::VectorXd>& theta,
-                         Eigen::Ref<Eigen::VectorXd> z) override {
-    if (theta(0) > limit_) return model::Status::Error(model::StatusCode::kDiverged, "diverged");
-    return inner_.evaluate(theta, z);
-  }
-  std::unique_ptr<ForwardModel> clone() const override {
-    return std::make_unique<FailingIshigami>(*this);
-  }
-
- private:
-  double limit_;
-  sh::IshigamiModel inner_;
-};
+FunctionModel failing_ishigami(double limit) {
+  sh::IshigamiModel ishigami;
+  return FunctionModel({"x1", "x2", "x3"}, ishigami.outputs(),
+                       [limit, ishigami](const Eigen::VectorXd& theta, Eigen::Ref<Eigen::VectorXd> z) mutable {
+                         if (theta(0) > limit) return model::Status::Error(model::StatusCode::kDiverged, "diverged");
+                         return ishigami.evaluate(theta, z);
+                       });
+}
 
 // Two outputs from the same inputs: y1 = x1 + 2 x2, y2 = x2 x3 (vector output in one design).
-class TwoOutputs final : public ForwardModel {
- public:
-  int input_size() const override { return 3; }
-  std::vector<std::string> input_names() const override { return {"x1", "x2", "x3"}; }
-  std::vector<model::Channel> outputs() const override {
-    return {{"y1", "1", ""}, {"y2", "1", ""}};
-  }
-  model::Status evaluate(const Eigen::Ref<const Eigen::VectorXd>& x,
-                         Eigen::Ref<Eigen::VectorXd> z) override {
-    z(0) = x(0) + 2.0 * x(1);
-    z(1) = x(1) * x(2);
-    return model::Status::Ok();
-  }
-  std::unique_ptr<ForwardModel> clone() const override { return std::make_unique<TwoOutputs>(); }
-};
+FunctionModel two_outputs() {
+  return FunctionModel({"x1", "x2", "x3"}, {{"y1", "1", ""}, {"y2", "1", ""}},
+                       [](const Eigen::VectorXd& x, Eigen::Ref<Eigen::VectorXd> z) {
+                         z(0) = x(0) + 2.0 * x(1);
+                         z(1) = x(1) * x(2);
+                         return model::Status::Ok();
+                       });
+}
 
 }  // namespace
 
@@ -118,7 +101,7 @@ TEST(SobolIndices, GFunctionEstimatesMatchTheExactIndices) {
 TEST(SobolIndices, VectorOutputsAreAnalysedFromOneDesign) {
   // y1 = x1 + 2 x2 on [0,1]^3: S1 = ST = (1/5, 4/5, 0). y2 = x2 x3: S1 = (0, 3/7, 3/7),
   // ST = (0, 4/7, 4/7) (V = 7/144, V2 = V3 = 1/48, V23 = 1/144).
-  const auto r = sh::run_sobol(TwoOutputs(), sh::g_function_prior(3), options(4096));
+  const auto r = sh::run_sobol(two_outputs(), sh::g_function_prior(3), options(4096));
   ASSERT_TRUE(r.ok());
   ASSERT_EQ(r.estimate.S1.rows(), 3);
   ASSERT_EQ(r.estimate.S1.cols(), 2);
@@ -133,7 +116,7 @@ TEST(SobolIndices, VectorOutputsAreAnalysedFromOneDesign) {
 
 TEST(SobolIndices, AFailedRunStopsTheStudyWithTheFailedRowsListedAndNoIndices) {
   // x1 > 3.1 fails: a few percent of the A, B and AB_i rows.
-  const auto r = sh::run_sobol(FailingIshigami(3.1), sh::ishigami_prior(), options(256));
+  const auto r = sh::run_sobol(failing_ishigami(3.1), sh::ishigami_prior(), options(256));
   EXPECT_FALSE(r.ok());
   EXPECT_FALSE(r.imputed);
   ASSERT_FALSE(r.failed_runs.empty());
@@ -160,7 +143,7 @@ TEST(SobolIndices, AFailedRunStopsTheStudyWithTheFailedRowsListedAndNoIndices) {
 TEST(SobolIndices, ImputationIsOptInAndFlagged) {
   auto o = options(1024);
   o.failure_policy = sh::SobolFailurePolicy::kImputeMean;
-  const auto r = sh::run_sobol(FailingIshigami(3.1), sh::ishigami_prior(), o);
+  const auto r = sh::run_sobol(failing_ishigami(3.1), sh::ishigami_prior(), o);
   EXPECT_TRUE(r.ok());
   EXPECT_TRUE(r.imputed);
   EXPECT_FALSE(r.failed_runs.empty());
@@ -214,27 +197,21 @@ TEST(SobolIndices, InvalidOptionsAreRejectedBeforeAnyRun) {
 // estimator (sobol_indices.h) keeps that in finite samples too, so an output with a large mean
 // (P_max ~124 mmHg with a 14 mmHg spread) gets the same S1 and interval width as its centred twin.
 namespace {
-class ShiftedIshigami final : public ForwardModel {
- public:
-  int input_size() const override { return 3; }
-  std::vector<std::string> input_names() const override { return {"x1", "x2", "x3"}; }
-  std::vector<model::Channel> outputs() const override { return {{"y", "1", "Ishigami"}, {"y_shifted", "1", "y + 1000"}}; }
-  model::Status evaluate(const Eigen::Ref<const Eigen::VectorXd>& theta, Eigen::Ref<Eigen::VectorXd> z) override {
-    Eigen::VectorXd y(1);
-    const model::Status s = base_.evaluate(theta, y);
-    z(0) = y(0);
-    z(1) = y(0) + 1000.0;
-    return s;
-  }
-  std::unique_ptr<ForwardModel> clone() const override { return std::make_unique<ShiftedIshigami>(); }
-
- private:
-  sh::IshigamiModel base_;
-};
+FunctionModel shifted_ishigami() {
+  return FunctionModel({"x1", "x2", "x3"}, {{"y", "1", "Ishigami"}, {"y_shifted", "1", "y + 1000"}},
+                       [ishigami = sh::IshigamiModel()](const Eigen::VectorXd& theta,
+                                                        Eigen::Ref<Eigen::VectorXd> z) mutable {
+                         Eigen::VectorXd y(1);
+                         const model::Status s = ishigami.evaluate(theta, y);
+                         z(0) = y(0);
+                         z(1) = y(0) + 1000.0;
+                         return s;
+                       });
+}
 }  // namespace
 
 TEST(SobolIndices, FirstOrderIndicesDoNotDependOnAnOutputOffset) {
-  const auto r = sh::run_sobol(ShiftedIshigami(), sh::ishigami_prior(), options(1024));
+  const auto r = sh::run_sobol(shifted_ishigami(), sh::ishigami_prior(), options(1024));
   ASSERT_TRUE(r.ok()) << r.report();
   const auto exact = sh::ishigami_exact();
   for (int i = 0; i < 3; ++i) {

@@ -1,6 +1,7 @@
 #include "model/lumped/sphere.h"
 
 #include "model/units.h"
+#include "tests/support/expect_between.h"
 
 #include <gtest/gtest.h>
 
@@ -14,6 +15,7 @@ namespace {
 
 using units::kMilliLitre;
 using units::kMmHg;
+using sigmaheart::testing::expect_between;
 
 // Beat indices from a trajectory (a tiny local helper; the real observers live in observers/).
 struct Indices {
@@ -81,16 +83,11 @@ TEST(LumpedSphere, HealthyPresetLandsInHealthyRanges) {
   const RunResult r = run_with(LumpedSphere::default_parameters());
   ASSERT_TRUE(r.status.ok()) << r.status.message;
   const Indices ix = indices(r.trajectory);
-  EXPECT_GT(ix.edv, 120.0);
-  EXPECT_LT(ix.edv, 170.0);
-  EXPECT_GT(ix.ef, 55.0);
-  EXPECT_LT(ix.ef, 70.0);
-  EXPECT_GT(ix.p_max, 110.0);
-  EXPECT_LT(ix.p_max, 130.0);
-  EXPECT_GT(ix.dpdt_max, 1200.0);
-  EXPECT_LT(ix.dpdt_max, 2000.0);
-  EXPECT_GT(ix.edp, 5.0);
-  EXPECT_LT(ix.edp, 12.0);
+  expect_between(ix.edv, 120.0, 170.0, "EDV");
+  expect_between(ix.ef, 55.0, 70.0, "EF");
+  expect_between(ix.p_max, 110.0, 130.0, "P_max");
+  expect_between(ix.dpdt_max, 1200.0, 2000.0, "dP/dt_max");
+  expect_between(ix.edp, 5.0, 12.0, "EDP");
   EXPECT_LE(r.info.periodicity_change, 1e-3);
   EXPECT_EQ(r.info.step_cuts, 0);
   // The beat goes through the four phases in order (0 -> 1 -> 2 -> 3 -> 0).
@@ -109,14 +106,11 @@ TEST(LumpedSphere, HeartFailurePresetLandsInFailureRanges) {
   const RunResult r = run_with(heart_failure_parameters());
   ASSERT_TRUE(r.status.ok()) << r.status.message;
   const Indices ix = indices(r.trajectory);
-  EXPECT_GT(ix.edv, 200.0);
-  EXPECT_LT(ix.edv, 300.0);
-  EXPECT_GT(ix.ef, 15.0);
-  EXPECT_LT(ix.ef, 35.0);
+  expect_between(ix.edv, 200.0, 300.0, "EDV");
+  expect_between(ix.ef, 15.0, 35.0, "EF");
   EXPECT_LT(ix.dpdt_max, 1000.0);
   EXPECT_LT(ix.p_max, 110.0);
-  EXPECT_GT(ix.edp, 15.0);
-  EXPECT_LT(ix.edp, 25.0);
+  expect_between(ix.edp, 15.0, 25.0, "EDP");
 }
 
 // Frank-Starling at the organ level: more preload, more stroke volume. It needs the optional
