@@ -148,6 +148,25 @@ std::string lower(std::string s) {
   return s;
 }
 
+// The header of a Gmsh 4.1 $Nodes or $Elements section, "numEntityBlocks numX minTag maxTag"
+// (Gmsh reference manual, section "MSH file format"); returns numEntityBlocks.
+long long read_v4_block_header(Lexer& lx, const std::string& what) {
+  const long long blocks = lx.integer("the number of entity blocks");
+  lx.integer(("the number of " + what + "s").c_str());
+  lx.integer(("the minimum " + what + " tag").c_str());
+  lx.integer(("the maximum " + what + " tag").c_str());
+  return blocks;
+}
+
+// The node list of one element of `type` (its tags already read), started on source line `line`.
+RawElement read_element_nodes(Lexer& lx, int type, int physical, size_t line) {
+  const int nn = nodes_of_type(type);
+  if (nn < 0) lx.fail("unsupported element type " + std::to_string(type));
+  RawElement e{type, physical, std::vector<long long>(static_cast<size_t>(nn)), line};
+  for (auto& v : e.nodes) v = lx.integer("an element node");
+  return e;
+}
+
 }  // namespace
 
 Mesh read_gmsh(const std::string& path) {
@@ -213,10 +232,7 @@ Mesh parse_gmsh(const std::string& text, const std::string& name) {
           coords[id] = lx.node_coordinates();
         }
       } else {
-        const long long nb = lx.integer("the number of entity blocks");
-        lx.integer("the number of nodes");
-        lx.integer("the minimum node tag");
-        lx.integer("the maximum node tag");
+        const long long nb = read_v4_block_header(lx, "node");
         for (long long b = 0; b < nb; ++b) {
           lx.integer("the entity dimension");
           lx.integer("the entity tag");
@@ -243,32 +259,22 @@ Mesh parse_gmsh(const std::string& text, const std::string& name) {
             const int t = static_cast<int>(lx.integer("an element tag"));
             if (k == 0) phys = t;
           }
-          const int nn = nodes_of_type(type);
-          if (nn < 0) lx.fail("unsupported element type " + std::to_string(type));
-          RawElement e{type, phys, std::vector<long long>(static_cast<size_t>(nn)), line};
-          for (auto& v : e.nodes) v = lx.integer("an element node");
-          elems.push_back(std::move(e));
+          elems.push_back(read_element_nodes(lx, type, phys, line));
         }
       } else {
-        const long long nb = lx.integer("the number of entity blocks");
-        lx.integer("the number of elements");
-        lx.integer("the minimum element tag");
-        lx.integer("the maximum element tag");
+        const long long nb = read_v4_block_header(lx, "element");
         for (long long b = 0; b < nb; ++b) {
           const int dim = static_cast<int>(lx.integer("the entity dimension"));
           const int ent = static_cast<int>(lx.integer("the entity tag"));
           const int type = static_cast<int>(lx.integer("the element type"));
           const long long n = lx.integer("the number of elements in the block");
-          const int nn = nodes_of_type(type);
-          if (nn < 0) lx.fail("unsupported element type " + std::to_string(type));
+          if (nodes_of_type(type) < 0) lx.fail("unsupported element type " + std::to_string(type));
           auto it = entity_phys.find({dim, ent});
           const int phys = it == entity_phys.end() ? 0 : it->second;
           for (long long i = 0; i < n; ++i) {
             const size_t line = lx.line_no();
             lx.integer("an element tag");
-            RawElement e{type, phys, std::vector<long long>(static_cast<size_t>(nn)), line};
-            for (auto& v : e.nodes) v = lx.integer("an element node");
-            elems.push_back(std::move(e));
+            elems.push_back(read_element_nodes(lx, type, phys, line));
           }
         }
       }

@@ -96,32 +96,21 @@ std::vector<BenchCase> bench_cases() {
   {
     ElastanceParameters p;  // dilated, hypocontractile (HFrEF-like)
     p.heart_rate = 85.0;
-    p.tau1 = 0.20;
-    p.tau2 = 0.36;
-    p.Ees = 0.7;
-    p.V0_es = 0.0;
-    p.A_ed = 0.4;
-    p.B_ed = 0.02;
-    p.V0_ed = 20.0;
-    p.P_pv = 12.0;
-    p.R_sys = 0.85;
-    p.C_sys = 1.4;
+    p.tau1 = 0.20; p.tau2 = 0.36;                 // activation [s]
+    p.Ees = 0.7; p.V0_es = 0.0;                   // weak ESPVR [mmHg/mL], [mL]
+    p.A_ed = 0.4; p.B_ed = 0.02; p.V0_ed = 20.0;  // compliant, dilated EDPVR
+    p.P_pv = 12.0; p.R_sys = 0.85; p.C_sys = 1.4;  // raised preload, circulation
     cases.push_back({"elastance", "reduced", "reduced contractility, dilated (EF ~30 %), 85 bpm", p,
                      103});
   }
   {
     ElastanceParameters p;  // hypertrophied, stiff, hypertensive (HFpEF-like)
     p.heart_rate = 75.0;
-    p.tau1 = 0.22;
-    p.tau2 = 0.37;
-    p.Ees = 4.5;
-    p.V0_es = 10.0;
-    p.A_ed = 0.5;
-    p.B_ed = 0.04;
-    p.P_pv = 15.0;
-    p.R_sys = 1.6;
-    p.C_sys = 0.7;
-    p.Zc = 0.08;
+    p.tau1 = 0.22; p.tau2 = 0.37;  // activation [s]
+    p.Ees = 4.5; p.V0_es = 10.0;   // steep ESPVR [mmHg/mL], [mL]
+    p.A_ed = 0.5; p.B_ed = 0.04;   // stiff EDPVR [mmHg], [1/mL]
+    p.P_pv = 15.0;                 // raised filling pressure [mmHg]
+    p.R_sys = 1.6; p.C_sys = 0.7; p.Zc = 0.08;  // high, stiff afterload
     cases.push_back({"elastance", "stiff", "stiff wall, high afterload (HFpEF-like), 75 bpm", p, 104});
   }
   {
@@ -135,26 +124,20 @@ std::vector<BenchCase> bench_cases() {
   {
     OneFibreParameters p;  // dilated, hypocontractile (HFrEF-like)
     p.heart_rate = 90.0;
-    p.V_wall = 170.0;
-    p.V_ref = 80.0;
-    p.c_p = 1.0;
-    p.T0 = 80.0;
-    p.P_pv = 15.0;
-    p.R_sys = 0.85;
+    p.V_wall = 170.0; p.V_ref = 80.0;  // thin-walled, dilated [mL]
+    p.c_p = 1.0; p.T0 = 80.0;          // passive scale, weak active stress
+    p.P_pv = 15.0; p.R_sys = 0.85;     // raised preload, circulation
     cases.push_back({"one-fibre", "reduced", "reduced contractility, dilated (EF ~30 %), 90 bpm", p,
                      203});
   }
   {
     OneFibreParameters p;  // hypertrophied (thick wall), stiff, hypertensive (HFpEF-like)
     p.heart_rate = 60.0;
-    p.V_wall = 220.0;
-    p.c_p = 2.0;
-    p.k_p = 14.0;
-    p.T0 = 160.0;
-    p.P_pv = 15.0;
-    p.R_sys = 1.6;
-    p.C_sys = 0.8;
-    p.Zc = 0.08;
+    p.V_wall = 220.0;                  // thick wall [mL]
+    p.c_p = 2.0; p.k_p = 14.0;         // stiff passive fibre law
+    p.T0 = 160.0;                      // preserved active stress
+    p.P_pv = 15.0;                     // raised filling pressure [mmHg]
+    p.R_sys = 1.6; p.C_sys = 0.8; p.Zc = 0.08;  // high, stiff afterload
     cases.push_back({"one-fibre", "stiff", "stiff wall, high afterload (HFpEF-like), 60 bpm", p, 204});
   }
   return cases;

@@ -90,12 +90,12 @@ TEST(Cli, SimulateWithoutOutputWritesResultsNamedAfterTheConfig) {
 
 TEST(Cli, BadConfigExitsTwoWithLocatedMessageAndLeavesTheOldResultUntouched) {
   const auto dir = scratch_dir();
-  const auto config = write_file(dir / "bad.yaml",
-                                 "name: standin\n"
-                                 "simulator:\n"
-                                 "  model: test-beat\n"
-                                 "  parameters:\n"
-                                 "    V_edd: 150 mL\n");
+  const auto config = write_file(dir / "bad.yaml", R"(name: standin
+simulator:
+  model: test-beat
+  parameters:
+    V_edd: 150 mL
+)");
   const auto h5 = write_file(dir / "r.h5", "previous result");
   const CliRun r = cli({"simulate", config.string(), "-o", h5.string()});
   EXPECT_EQ(r.code, kExitBadInput);
@@ -174,11 +174,11 @@ TEST(Binary, HelpDocumentsTheExitCodes) {
 
 TEST(Binary, BadConfigExitsTwoWithFileLineColumn) {
   const auto dir = scratch_dir();
-  const auto config = write_file(dir / "x.yaml",
-                                 "simulator:\n"
-                                 "  model: lumped-sphere\n"
-                                 "  parameters:\n"
-                                 "    sigma_0: 1.5e5\n");
+  const auto config = write_file(dir / "x.yaml", R"(simulator:
+  model: lumped-sphere
+  parameters:
+    sigma_0: 1.5e5
+)");
   EXPECT_EQ(run_binary("validate '" + config.string() + "'", dir / "out.txt"), 2);
   EXPECT_EQ(read_file(dir / "out.txt"),
             "error: " + config.string() +

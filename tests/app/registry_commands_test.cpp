@@ -109,17 +109,16 @@ TEST(RegistryCommands, CalibrateRecoversSegmentContractilitiesFromSynthesizedCur
                         "sigma0_01=" + std::to_string(kSigma1), "--set", "sigma0_02=" + std::to_string(kSigma2),
                         "--set", "R_d=" + std::to_string(kRd)});
   ASSERT_EQ(s.code, app::kExitOk) << s.err;
-  const auto cfg = write_file(dir / "cal.yaml",
-                              std::string("name: cal\n") + kModel +
-                                  "observations:\n"
-                                  "  file: obs.csv\n"
-                                  "  curves: [V_seg01, V_seg02, P_lv]\n"
-                                  "  noise: {V_seg01: 0.5 mL, V_seg02: 0.5 mL, P_lv: 1 mmHg}\n"
-                                  "estimate:\n"
-                                  "  sigma0_01: {spread: 30 %}\n"
-                                  "  sigma0_02: {spread: 30 %}\n"
-                                  "  R_d: {spread: 20 %}\n"
-                                  "calibration: {mode: iterate-keep-spread, max_iterations: 15, tolerance: 1.0e-3}\n");
+  const auto cfg = write_file(dir / "cal.yaml", std::string("name: cal\n") + kModel + R"(observations:
+  file: obs.csv
+  curves: [V_seg01, V_seg02, P_lv]
+  noise: {V_seg01: 0.5 mL, V_seg02: 0.5 mL, P_lv: 1 mmHg}
+estimate:
+  sigma0_01: {spread: 30 %}
+  sigma0_02: {spread: 30 %}
+  R_d: {spread: 20 %}
+calibration: {mode: iterate-keep-spread, max_iterations: 15, tolerance: 1.0e-3}
+)");
   const CliRun r = run_with_summary("calibrate", cfg, dir, {"--threads", "2"});
   ASSERT_EQ(r.code, app::kExitOk) << r.err << r.out;
   const auto j = read_json(dir / "r.json");
@@ -177,19 +176,18 @@ TEST(RegistryCommands, PersonalizeFindsTheSegmentsOfTheTestModelByTags) {
                         "--seed", "4", "--set", "sigma0_01=" + std::to_string(kSigma1), "--set",
                         "sigma0_02=" + std::to_string(kSigma2)});
   ASSERT_EQ(s.code, app::kExitOk) << s.err;
-  const auto cfg = write_file(dir / "pers.yaml",
-                              std::string("name: pers\n") + kModel +
-                                  "personalize:\n"
-                                  "  observations:\n"
-                                  "    file: regional.csv\n"
-                                  "    channels: all\n"
-                                  "    noise: 0.3 mL\n"
-                                  "    start_beats: 20\n"
-                                  "  estimate:\n"
-                                  "    sigma0: {segments: all, prior: 5.0e4, spread: 50 %, transform: log}\n"
-                                  "  filter: {beats: 3, forgetting: 0.9, r_inflation: 2, threads: 2}\n"
-                                  "  truth:\n"
-                                  "    sigma0: [35 kPa, 60 kPa]\n");
+  const auto cfg = write_file(dir / "pers.yaml", std::string("name: pers\n") + kModel + R"(personalize:
+  observations:
+    file: regional.csv
+    channels: all
+    noise: 0.3 mL
+    start_beats: 20
+  estimate:
+    sigma0: {segments: all, prior: 5.0e4, spread: 50 %, transform: log}
+  filter: {beats: 3, forgetting: 0.9, r_inflation: 2, threads: 2}
+  truth:
+    sigma0: [35 kPa, 60 kPa]
+)");
   const CliRun r = run_with_summary("personalize", cfg, dir);
   ASSERT_EQ(r.code, app::kExitOk) << r.err << r.out;
   const auto j = read_json(dir / "r.json");
