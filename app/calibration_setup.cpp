@@ -334,11 +334,4 @@ std::pair<double, std::string> number_and_unit(const ConfigNode& node) {
   return {value, unit};
 }
 
-void register_calibration_sections() {
-  register_config_section({"observations", [](const Config& c) { parse_calibration_problem(c); }});
-  // The three sections are parsed together; checking one checks all.
-  register_config_section({"estimate", [](const Config&) {}});
-  register_config_section({"calibration", [](const Config&) {}});
-}
-
 }  // namespace sigmaheart::app

@@ -64,8 +64,5 @@ estimation::PriorParameter parse_estimated_parameter(const model::Parameter& p,
 // A scalar "<number> <unit>" (or a bare number: empty unit) split into its value and unit text.
 std::pair<double, std::string> number_and_unit(const ConfigNode& node);
 
-// Registers the three sections with the config loader (so `validate` checks them and root-level
-// typos are caught). Called by the commands that use them.
-void register_calibration_sections();
 
 }  // namespace sigmaheart::app

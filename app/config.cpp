@@ -5,7 +5,6 @@
 
 #include <array>
 
-#include <mutex>
 #include <stdexcept>
 
 namespace sigmaheart::app {
@@ -22,24 +21,12 @@ const char* to_string(ValueSource source) {
 
 namespace {
 
-std::vector<ConfigSection>& sections_storage() {
-  static std::vector<ConfigSection> sections = {
-      {"simulator", [](const Config&) {}},  // parsed by load_config itself
-  };
-  return sections;
-}
-
-std::mutex& sections_mutex() {
-  static std::mutex m;
-  return m;
-}
-
 Config parse_common(ConfigFile file, const std::filesystem::path& path,
-                    const model::ModelRegistry& models) {
+                    const model::ModelRegistry& models, const ConfigSections& sections) {
   Config c;
   const ConfigNode root = file.root();
-  std::vector<std::string> allowed = {"name", "description", "seed"};
-  for (const auto& s : config_sections()) allowed.push_back(s.key);
+  std::vector<std::string> allowed = {"name", "description", "seed", "simulator"};
+  for (const auto& s : sections.all()) allowed.push_back(s.key);
   root.check_keys(allowed, "section");
 
   c.name = root.optional<std::string>("name", path.stem().string());
@@ -63,7 +50,7 @@ Config parse_common(ConfigFile file, const std::filesystem::path& path,
 
 Config load_with_overrides(ConfigFile file, const std::filesystem::path& path,
                            const std::vector<std::string>& overrides,
-                           const model::ModelRegistry& models) {
+                           const model::ModelRegistry& models, const ConfigSections& sections) {
   for (const auto& assignment : overrides) {
     const bool quote = assignment.find_first_of(" \t") != std::string::npos;
     const std::string origin = quote ? "--set '" + assignment + "'" : "--set " + assignment;
@@ -73,23 +60,24 @@ Config load_with_overrides(ConfigFile file, const std::filesystem::path& path,
     }
     file.set(expand_override_key(assignment.substr(0, eq)), assignment.substr(eq + 1), origin);
   }
-  return parse_common(std::move(file), path, models);
+  return parse_common(std::move(file), path, models, sections);
 }
 
 }  // namespace
 
-void register_config_section(ConfigSection section) {
-  std::lock_guard<std::mutex> lock(sections_mutex());
-  for (auto& s : sections_storage()) {
+ConfigSections::ConfigSections(std::vector<ConfigSection> sections) {
+  for (auto& s : sections) add(std::move(s));
+}
+
+void ConfigSections::add(ConfigSection section) {
+  for (auto& s : sections_) {
     if (s.key == section.key) {
       s = std::move(section);
       return;
     }
   }
-  sections_storage().push_back(std::move(section));
+  sections_.push_back(std::move(section));
 }
-
-const std::vector<ConfigSection>& config_sections() { return sections_storage(); }
 
 std::string expand_override_key(const std::string& key) {
   const auto dot = key.find('.');
@@ -145,13 +133,15 @@ SimulatorSection parse_simulator_section(const ConfigNode& node,
 }
 
 Config load_config(const std::filesystem::path& path, const std::vector<std::string>& overrides,
-                   const model::ModelRegistry& models) {
-  return load_with_overrides(ConfigFile::load(path), path, overrides, models);
+                   const model::ModelRegistry& models, const ConfigSections& sections) {
+  return load_with_overrides(ConfigFile::load(path), path, overrides, models, sections);
 }
 
 Config parse_config(const std::string& text, const std::string& file_name,
-                    const std::vector<std::string>& overrides, const model::ModelRegistry& models) {
-  return load_with_overrides(ConfigFile::parse(text, file_name), file_name, overrides, models);
+                    const std::vector<std::string>& overrides, const model::ModelRegistry& models,
+                    const ConfigSections& sections) {
+  return load_with_overrides(ConfigFile::parse(text, file_name), file_name, overrides, models,
+                             sections);
 }
 
 }  // namespace sigmaheart::app

@@ -50,10 +50,22 @@ struct ConfigSection {
   std::string key;
   std::function<void(const Config&)> validate;  // parses the section; throws InputError
 };
-// Makes a section name known (commands call this from their register_<name>()); replaces an
-// entry with the same key.
-void register_config_section(ConfigSection section);
-const std::vector<ConfigSection>& config_sections();
+// The top-level sections a config may hold besides name, description, seed and simulator, each
+// with the check `validate` runs. A value passed to load_config (no global state): the built-in
+// commands' sections are builtin_config_sections(); tests add their own to a copy.
+class ConfigSections {
+ public:
+  ConfigSections() = default;
+  explicit ConfigSections(std::vector<ConfigSection> sections);
+  void add(ConfigSection section);  // replaces an entry with the same key
+  const std::vector<ConfigSection>& all() const { return sections_; }
+
+ private:
+  std::vector<ConfigSection> sections_;
+};
+// observations, estimate, calibration, cases, specificity, sensitivity, personalize (defined in
+// app/config_sections.cpp with the parsers of the commands that read them).
+const ConfigSections& builtin_config_sections();
 
 struct Config {
   ConfigFile file;                  // text, tree and overrides: later sections parse from here
@@ -72,12 +84,15 @@ SimulatorSection parse_simulator_section(const ConfigNode& node,
 // Override keys: "name", "description", "seed"; a bare parameter name ("sigma0"),
 // "numerics.<key>", "parameters.<name>",
 // or a full dotted path from the top ("simulator.model", "calibration.max_iterations").
+// `models` are the models `simulator.model` may name; `sections` the other top-level sections.
 Config load_config(const std::filesystem::path& path, const std::vector<std::string>& overrides = {},
-                   const model::ModelRegistry& models = model::builtin_models());
+                   const model::ModelRegistry& models = model::builtin_models(),
+                   const ConfigSections& sections = builtin_config_sections());
 // The same from text (tests, configs generated in memory).
 Config parse_config(const std::string& text, const std::string& file_name,
                     const std::vector<std::string>& overrides = {},
-                    const model::ModelRegistry& models = model::builtin_models());
+                    const model::ModelRegistry& models = model::builtin_models(),
+                    const ConfigSections& sections = builtin_config_sections());
 
 // The dotted path an override key stands for ("sigma0" -> "simulator.parameters.sigma0").
 std::string expand_override_key(const std::string& key);

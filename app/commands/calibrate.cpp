@@ -39,7 +39,7 @@ std::function<void(const estimation::UtProgress&)> ut_progress(ProgressLine& pro
 
 int run_calibrate(const StudyOptions& o, CommandContext& ctx) {
   io::Provenance prov = started_provenance();
-  const Config config = load_config(o.config, o.overrides, *ctx.models);
+  const Config config = load_config(o.config, o.overrides, *ctx.models, *ctx.sections);
   const CalibrationProblem problem = parse_calibration_problem(config);
   const std::filesystem::path output = study_output(o, "calibrate");
 
@@ -96,7 +96,6 @@ int run_calibrate(const StudyOptions& o, CommandContext& ctx) {
 }  // namespace
 
 void register_calibrate(CLI::App& app, CommandContext& ctx) {
-  register_calibration_sections();
   add_study_command(app, ctx, "calibrate",
                     "Calibrate global parameters from volume/pressure curves (Unscented Transform)",
                     {"Config file (YAML) with observations:, estimate:, calibration:",

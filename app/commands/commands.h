@@ -40,6 +40,8 @@ struct CommandContext {
   bool root() const { return rank == 0; }
   // The models configs may name (tests add stand-ins; see run_cli in app/cli.h).
   const model::ModelRegistry* models = &model::builtin_models();
+  // The top-level config sections besides simulator: (validate checks each one present).
+  const ConfigSections* sections = &builtin_config_sections();
 };
 
 void register_simulate(CLI::App& app, CommandContext& ctx);

@@ -19,7 +19,7 @@ std::string number(double v) {
 }
 
 int run_params(const ConfigOptions& o, CommandContext& ctx) {
-  const Config config = load_config(o.config, o.overrides, *ctx.models);
+  const Config config = load_config(o.config, o.overrides, *ctx.models, *ctx.sections);
   const auto& space = config.simulator.parameters;
   bool tagged = false;
   for (const auto& p : space.all()) tagged = tagged || !p.family.empty();

@@ -41,7 +41,7 @@ std::function<bool(const estimation::RoukfStep&)> roukf_progress(ProgressLine& p
 
 int run_personalize(const StudyOptions& o, CommandContext& ctx) {
   io::Provenance prov = started_provenance();
-  const Config config = load_config(o.config, o.overrides, *ctx.models);
+  const Config config = load_config(o.config, o.overrides, *ctx.models, *ctx.sections);
   PersonalizeProblem problem = parse_personalize(config);
   const std::filesystem::path output = study_output(o, "personalize");
 
@@ -93,7 +93,6 @@ int run_personalize(const StudyOptions& o, CommandContext& ctx) {
 }  // namespace
 
 void register_personalize(CLI::App& app, CommandContext& ctx) {
-  register_config_section({"personalize", [](const Config& c) { parse_personalize(c); }});
   add_study_command(app, ctx, "personalize", "Estimate per-segment parameters from regional volume curves (ROUKF)",
                     {"Config file (YAML) with a personalize: section",
                      "Also write the final estimates and their std as JSON",

@@ -32,7 +32,7 @@ namespace {
 
 int run_sensitivity(const StudyOptions& o, CommandContext& ctx) {
   io::Provenance prov = started_provenance();
-  const Config config = load_config(o.config, o.overrides, *ctx.models);
+  const Config config = load_config(o.config, o.overrides, *ctx.models, *ctx.sections);
   SensitivitySetup setup = parse_sensitivity(config);
   const std::filesystem::path output = study_output(o, "sensitivity");
   estimation::EnsembleOptions ensemble = setup.ensemble();
@@ -85,7 +85,6 @@ int run_sensitivity(const StudyOptions& o, CommandContext& ctx) {
 }  // namespace
 
 void register_sensitivity(CLI::App& app, CommandContext& ctx) {
-  register_config_section({"sensitivity", [](const Config& c) { parse_sensitivity(c); }});
   add_study_command(app, ctx, "sensitivity",
                     "One-at-a-time, Morris or Sobol' study of the model outputs (section sensitivity:)",
                     {"Config file (YAML) with a sensitivity: section", "Also write the indices (clinical units) as JSON",

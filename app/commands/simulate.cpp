@@ -52,7 +52,7 @@ std::vector<io::Indicator> simulate_indicators(const model::RunResult& result,
 
 int run_simulate(const SimulateOptions& o, CommandContext& ctx) {
   io::Provenance prov = started_provenance();
-  const Config config = load_config(o.config, o.overrides, *ctx.models);
+  const Config config = load_config(o.config, o.overrides, *ctx.models, *ctx.sections);
   const std::filesystem::path output = !o.output.empty() ? o.output : default_output_path(o.config, "simulate");
 
   auto simulator = config.simulator.make();

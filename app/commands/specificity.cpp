@@ -45,7 +45,7 @@ namespace sp = estimation::specificity;
 int run_specificity_command(const StudyOptions& o, CommandContext& ctx) {
   io::Provenance prov = started_provenance();
   const auto wall_start = std::chrono::steady_clock::now();
-  const Config config = load_config(o.config, o.overrides, *ctx.models);
+  const Config config = load_config(o.config, o.overrides, *ctx.models, *ctx.sections);
   const SpecificitySetup setup = parse_specificity_setup(config);
   const std::filesystem::path output = study_output(o, "specificity");
   const int n = static_cast<int>(setup.cases.size());
@@ -123,18 +123,6 @@ int run_specificity_command(const StudyOptions& o, CommandContext& ctx) {
 }  // namespace
 
 void register_specificity(CLI::App& app, CommandContext& ctx) {
-  register_calibration_sections();
-  register_config_section({"cases", [](const Config& c) { parse_specificity_setup(c); }});
-  register_config_section({"specificity", [](const Config& c) { parse_specificity_section(c); }});
-  // A specificity config has observations: without file: (the cases give the files); check the
-  // calibration sections with the first case's file then, as `calibrate` would for one case.
-  register_config_section({"observations", [](const Config& c) {
-                             if (c.file.root().has("cases")) {
-                               parse_specificity_setup(c);
-                             } else {
-                               parse_calibration_problem(c);
-                             }
-                           }});
   add_study_command(app, ctx, "specificity", "Calibrate a cohort and find the parameters that separate two groups",
                     {"Config file (YAML) with cases:, observations:, estimate:, calibration: "
                      "(and optionally specificity:)",

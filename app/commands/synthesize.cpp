@@ -79,7 +79,7 @@ double interpolate_periodic(const Eigen::VectorXd& t, const Eigen::VectorXd& x, 
 }
 
 int run_synthesize(const SynthesizeOptions& o, CommandContext& ctx) {
-  const Config config = load_config(o.config, o.overrides, *ctx.models);
+  const Config config = load_config(o.config, o.overrides, *ctx.models, *ctx.sections);
   if (o.frames < 3) throw InputError(Location{"--frames"}, "expected at least 3 frames");
   auto simulator = config.simulator.make();
   const auto sim_channels = simulator->channels();

@@ -1,5 +1,5 @@
 // `sigmaheart validate CONFIG`: parse and check a config without running anything. Every section
-// present that a command registered (register_config_section) is checked, and the simulator is
+// present that a command reads (builtin_config_sections, app/config_sections.cpp) is checked, and the simulator is
 // built once, so a config that validates is one the other commands accept.
 #include "app/commands/commands.h"
 #include "app/config.h"
@@ -11,11 +11,11 @@ namespace sigmaheart::app {
 namespace {
 
 int run_validate(const ConfigOptions& o, CommandContext& ctx) {
-  const Config config = load_config(o.config, o.overrides, *ctx.models);
+  const Config config = load_config(o.config, o.overrides, *ctx.models, *ctx.sections);
   const ConfigNode root = config.file.root();
   std::vector<std::string> checked = {"simulator"};
-  for (const auto& section : config_sections()) {
-    if (section.key == "simulator" || !root.has(section.key)) continue;
+  for (const auto& section : ctx.sections->all()) {
+    if (!root.has(section.key)) continue;
     section.validate(config);
     checked.push_back(section.key);
   }

@@ -148,11 +148,18 @@ TEST(Config, ExpandsOverrideKeys) {
 
 TEST(Config, RegisteredSectionsAreAcceptedAtTheTopLevel) {
   const std::string text = std::string(kHealthy) + "twin_study: {members: 3}\n";
-  EXPECT_EQ(error_of([&] { parse_config(text, "x.yaml"); }),
+  const ConfigSections none;
+  EXPECT_EQ(error_of([&] { parse_config(text, "x.yaml", {}, model::builtin_models(), none); }),
             "x.yaml:9:1: unknown section 'twin_study' at the top level; expected one of: name, "
             "description, seed, simulator");
-  register_config_section({"twin_study", [](const Config&) {}});
-  EXPECT_NO_THROW(parse_config(text, "x.yaml"));
+  ConfigSections with_twin_study = builtin_config_sections();
+  with_twin_study.add({"twin_study", [](const Config&) {}});
+  EXPECT_NO_THROW(parse_config(text, "x.yaml", {}, model::builtin_models(), with_twin_study));
+  // The built-in sections are known whichever command runs (no registration order).
+  EXPECT_EQ(error_of([&] { parse_config(std::string(kHealthy) + "calibraton: {}\n", "x.yaml"); })
+                .find("x.yaml:9:1: unknown section 'calibraton' at the top level (did you mean "
+                      "'calibration'?)"),
+            0u);
 }
 
 // The regional model's numerics are parsed in model/lumped/register.cpp through the
