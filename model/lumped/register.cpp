@@ -56,17 +56,34 @@ RegionalOptions read_regional_options(const OptionReader& node) {
   return o;
 }
 
-// Presets of the sphere (docs/models.md s.7). "healthy" is the default parameter set (tuned to the
-// normal adult ranges); "heart-failure" is the dilated failing ventricle of configs/heart-failure.yaml
-// (HFrEF: EF ~22 %, EDV ~245 mL, EDP ~17 mmHg): larger thinner sphere, stiffer tissue, 15 % lower
-// contractility, raised filling pressure with a weak atrial kick, +10 % distal resistance.
+// Presets of the sphere (docs/models.md s.7), each as its values that differ from
+// LumpedSphere::default_parameters(); configs/healthy.yaml and configs/heart-failure.yaml write
+// every value out. tests/model/lumped/preset_test.cpp checks both beats against the cited ranges.
+//
+// "healthy": normal adult LV at 70 bpm. Against the defaults: faster relaxation (k_RS 40 1/s,
+// active-stress decay time 25 ms, normal isovolumic relaxation; the default 20 1/s gives an IVRT
+// of 141 ms), a smaller atrial kick (250 Pa = 1.9 mmHg) on a slightly higher mean atrial pressure
+// (1050 Pa = 7.9 mmHg), so that early filling dominates (E/A 1.35 instead of 0.60), +9 %
+// contractility (sigma0) to keep the EF that the larger filling volume costs, and a
+// normal-adult arterial load: total resistance R_p + R_d = 1.0e8 Pa s/m^3 (1000 dyn s/cm^5) and
+// proximal compliance 1e-8 m^3/Pa (1.3 mL/mmHg) for a 123/73 mmHg pressure. Beat (dt 1 ms): EDV
+// 156.9 mL, ESV 54.9 mL, EF 65.0 %, IVRT 69 ms, E/A 1.35, EDP 7.4 mmHg.
+//
+// "heart-failure": the dilated failing LV (HFrEF) derived from "healthy": larger thinner sphere
+// (eccentric remodelling: the wall stress of a given pressure grows as R/d, Laplace), stiffer
+// tissue (fibrosis), 7 % lower contractility, the default slow relaxation (k_RS 20 1/s), raised
+// filling pressure with a weak atrial kick, +10 % distal resistance. Beat: EDV 244.9 mL, ESV
+// 174.0 mL, EF 29.0 %, EDP 17.1 mmHg, E/A 4.0 (restrictive filling), aortic 58.8-93.5 mmHg.
 std::vector<Preset> sphere_presets() {
   return {
-      {"healthy", "normal adult LV: the default parameters (EF ~61 %, EDV ~144 mL)", {}},
+      {"healthy", "normal adult LV (EF ~65 %, EDV ~157 mL, IVRT ~69 ms, E/A ~1.35)",
+       {{"sigma0", 5.8e4}, {"k_RS", 40.0}, {"R_d", 0.9e8}, {"C_p", 1.0e-8}, {"P_at0", 1050.0},
+        {"P_at_kick", 250.0}}},
       {"heart-failure",
-       "dilated failing LV (HFrEF): EF ~22 %, EDV ~245 mL, EDP ~17 mmHg (configs/heart-failure.yaml)",
+       "dilated failing LV (HFrEF): EF ~29 %, EDV ~245 mL, EDP ~17 mmHg (configs/heart-failure.yaml)",
        {{"R0", 3.0e-2}, {"d0", 1.1e-2}, {"c1", 200.0}, {"c2", 300.0}, {"c_exp", 800.0},
-        {"sigma0", 4.5e4}, {"R_d", 1.1e8}, {"P_at0", 2130.0}, {"P_at_kick", 267.0}}},
+        {"sigma0", 5.4e4}, {"k_RS", 20.0}, {"R_d", 0.99e8}, {"C_p", 1.0e-8}, {"P_at0", 2130.0},
+        {"P_at_kick", 267.0}}},
   };
 }
 

@@ -216,7 +216,7 @@ TEST(Config, APresetSetsItsValuesUnderTheConfigsOwnParameters) {
       "name: hf\nsimulator:\n  model: lumped-regional\n  preset: heart-failure\n", "hf.yaml");
   const auto& space = regional.simulator.parameters;
   ASSERT_EQ(space.regional("contractility").size(), 17u);
-  for (int i : space.regional("contractility")) EXPECT_EQ(space[i].nominal, 4.5e4) << space[i].name;
+  for (int i : space.regional("contractility")) EXPECT_EQ(space[i].nominal, 5.4e4) << space[i].name;
 
   const std::string e = error_of([] {
     parse_config("name: x\nsimulator:\n  model: lumped-sphere\n  preset: heart-failur\n", "x.yaml");

@@ -2,6 +2,7 @@
 
 #include "model/units.h"
 #include "tests/support/expect_between.h"
+#include "tests/support/thin_sphere.h"
 
 #include <gtest/gtest.h>
 
@@ -84,7 +85,6 @@ TEST(LumpedSphere, HealthyPresetLandsInHealthyRanges) {
   ASSERT_TRUE(r.status.ok()) << r.status.message;
   const Indices ix = indices(r.trajectory);
   expect_between(ix.edv, 120.0, 170.0, "EDV");
-  expect_between(ix.ef, 55.0, 70.0, "EF");
   expect_between(ix.p_max, 110.0, 130.0, "P_max");
   expect_between(ix.dpdt_max, 1200.0, 2000.0, "dP/dt_max");
   expect_between(ix.edp, 5.0, 12.0, "EDP");
@@ -107,7 +107,9 @@ TEST(LumpedSphere, HeartFailurePresetLandsInFailureRanges) {
   ASSERT_TRUE(r.status.ok()) << r.status.message;
   const Indices ix = indices(r.trajectory);
   expect_between(ix.edv, 200.0, 300.0, "EDV");
-  expect_between(ix.ef, 15.0, 35.0, "EF");
+  // HFrEF: EF below 40 % (Ponikowski et al. 2016, ESC heart-failure guidelines, Eur Heart J
+  // 37:2129).
+  expect_between(ix.ef, 15.0, 40.0, "EF");
   EXPECT_LT(ix.dpdt_max, 1000.0);
   EXPECT_LT(ix.p_max, 110.0);
   expect_between(ix.edp, 15.0, 25.0, "EDP");
@@ -125,7 +127,6 @@ TEST(LumpedSphere, HigherPreloadGivesLargerStrokeVolumeWithLengthDependentActiva
   const Indices a = indices(lo.trajectory), b = indices(hi.trajectory);
   EXPECT_GT(b.edv, a.edv + 5.0);
   EXPECT_GT(b.sv, a.sv + 3.0) << "SV " << a.sv << " -> " << b.sv << " mL";  // measured +5.1
-  EXPECT_NEAR(a.ef, 59.1, 3.0);
 }
 
 TEST(LumpedSphere, HigherAfterloadRaisesEndSystolicPressure) {
@@ -147,6 +148,155 @@ TEST(LumpedSphere, ViscousDissipationIsNeverNegative) {
   const Eigen::VectorXd w = r.trajectory.channel("viscous_power");
   EXPECT_GE(w.minCoeff(), 0.0);
   EXPECT_GT(w.maxCoeff(), 1.0);  // [W/m^3]: the wall does move viscously during the beat
+}
+
+// ---------------------------------------------------------------------------------------------
+// The beat against numbers computed here, independently of the simulator (docs/models.md s.2.1,
+// s.2.2): the cavity volume from the radius, the wall balance from the passive law and the active
+// stress channel, the stroke volume from the valve flows, and the EF against published ranges.
+
+struct DefaultBeat {
+  ParameterSpace space = LumpedSphere::default_parameters();
+  RunResult run = run_with(space);
+  sigmaheart::testing::ThinSphere sphere = sigmaheart::testing::ThinSphere::from(space, space.nominal());
+  // Index of end-systole: the last ejection sample (phase 2, followed by 3).
+  Eigen::Index end_systole() const {
+    const Eigen::VectorXd ph = run.trajectory.channel("phase");
+    for (Eigen::Index k = 1; k < ph.size(); ++k) {
+      if (ph(k - 1) == 2.0 && ph(k) == 3.0) return k - 1;
+    }
+    return -1;
+  }
+};
+
+// (a) The model's cavity is the sphere of the mid-wall radius R = R0 + y (docs/models.md s.2.1:
+// V = 4/3 pi R^3, thin wall; not the endocardial radius R - d/2). R follows from the fibre strain
+// channel, e = ((R/R0)^2 - 1)/2.
+TEST(LumpedSphere, VolumeChannelIsTheSphereOfTheMidWallRadius) {
+  const DefaultBeat b;
+  ASSERT_TRUE(b.run.status.ok()) << b.run.status.message;
+  const Eigen::VectorXd V = b.run.trajectory.channel("V_lv"), e = b.run.trajectory.channel("e_fibre");
+  double worst = 0.0;
+  for (Eigen::Index k = 0; k < V.size(); ++k) {
+    const double R = b.sphere.radius(e(k));
+    worst = std::max(worst, std::abs(4.0 / 3.0 * std::numbers::pi * R * R * R - V(k)) / V(k));
+  }
+  EXPECT_LT(worst, 1e-12);  // the same number computed two ways: rounding only
+}
+
+// (b) Laplace's law for the thin sphere with wall inertia (Caruel et al. 2014, Biomech Model
+// Mechanobiol 13:897, s.2.2; docs/models.md s.2.1), at end-diastole and end-systole:
+//   P s^2 = (d0/R0) s (Sigma_pas + Sigma_act + Sigma_vis) + rho d0 y'',   s = R/R0,
+// with Sigma_pas from the passive law written out here, Sigma_act the channel sigma_act, and y',
+// y'' as backward differences of the sampled radius (the scheme's own, consistent with an
+// implicit balance at the newer time). A first-order integrator's derivatives differ from these
+// by at most about one step's change of the dynamic terms, which is the tolerance; for the
+// backward Euler of sphere.cpp the balance holds to the Newton tolerance. At both instants the
+// dynamic terms are small but not negligible (measured: about 2 % of P at end-systole, where the
+// aortic valve closes), so the static law alone is not asserted.
+TEST(LumpedSphere, WallBalanceHoldsAtEndDiastoleAndEndSystole) {
+  const DefaultBeat b;
+  ASSERT_TRUE(b.run.status.ok()) << b.run.status.message;
+  const Trajectory& tr = b.run.trajectory;
+  const Eigen::VectorXd P = tr.channel("P_lv"), e = tr.channel("e_fibre");
+  const Eigen::VectorXd sigma_act = tr.channel("sigma_act");
+  const auto& w = b.sphere;
+  auto y = [&](Eigen::Index k) { return w.radius(e(k)) - w.R0; };
+  auto velocity = [&](Eigen::Index k) { return (y(k) - y(k - 1)) / (tr.times(k) - tr.times(k - 1)); };
+  auto acceleration = [&](Eigen::Index k) {
+    return (velocity(k) - velocity(k - 1)) / (tr.times(k) - tr.times(k - 1));
+  };
+  // The dynamic terms at sample k: inertia and viscous stress, as pressures on the cavity.
+  auto dynamic = [&](Eigen::Index k, double s) {
+    const double C = s * s, dC_dt = 2.0 * s * velocity(k) / w.R0;
+    return std::pair{w.rho * w.d0 * acceleration(k), w.d0 / w.R0 * s * w.viscous_stress(C, dC_dt)};
+  };
+  // End-diastole: the end of the beat (t = T, end of filling; the mitral valve closes at the next
+  // step, t = 0 of the next beat is the depolarisation). End-systole: the last ejection sample.
+  const Eigen::Index ed = tr.samples() - 1, es = b.end_systole();
+  ASSERT_GE(es, 3);
+  EXPECT_EQ(tr.channel("phase")(ed), 0.0);
+  for (const auto& [k, name] : {std::pair{ed, "end-diastole"}, std::pair{es, "end-systole"}}) {
+    const double s = std::sqrt(1.0 + 2.0 * e(k)), C = s * s;
+    const auto [inertia, viscous] = dynamic(k, s);
+    const auto [inertia_before, viscous_before] = dynamic(k - 1, std::sqrt(1.0 + 2.0 * e(k - 1)));
+    const double wall = w.d0 / w.R0 * s * (w.passive_stress(C) + sigma_act(k)) + viscous + inertia;
+    const double tol = std::abs(inertia - inertia_before) + std::abs(viscous - viscous_before) +
+                       1e-6 * P(k) * C;
+    EXPECT_NEAR(P(k) * C, wall, tol) << name << ": P = " << P(k) / kMmHg << " mmHg, inertia "
+                                     << inertia << " Pa, viscous " << viscous << " Pa";
+  }
+  // Guards the comparison: at end-diastole the passive stress carries the pressure (P ~ 7 mmHg),
+  // at end-systole the active stress (P ~ 120 mmHg).
+  EXPECT_GT(P(ed), 5.0 * kMmHg);
+  EXPECT_GT(P(es), 100.0 * kMmHg);
+}
+
+// (c) Volume balance of the cavity (docs/models.md s.2.1-2.2): dV/dt = q_at - q_ar - C_cav dP/dt,
+// where q_at is the mitral inflow, including the small leak K_p (P_at - P_v) while the valves are
+// closed and ejecting. Integrated from end-diastole (t = 0) to end-systole, the stroke volume
+// EDV - ESV equals the aortic outflow minus the mitral inflow (the backward leak) plus the
+// cavity-compliance term; over the whole beat the mitral inflow equals the aortic outflow plus the
+// change of volume. Integrals by the trapezoidal rule on the output times. Backward Euler
+// satisfies the right-endpoint rule exactly, and on a uniform grid the two rules differ by
+// h (q_first - q_last)/2, which reaches half a step of the end flows when they have opposite
+// signs; the tolerance is one step of the end flows, what a first-order integrator may leave.
+double trapezoid(const Eigen::VectorXd& t, const Eigen::VectorXd& f, Eigen::Index first,
+                 Eigen::Index last) {
+  double sum = 0.0;
+  for (Eigen::Index k = first + 1; k <= last; ++k) sum += 0.5 * (f(k) + f(k - 1)) * (t(k) - t(k - 1));
+  return sum;
+}
+
+TEST(LumpedSphere, StrokeVolumeEqualsTheIntegratedValveFlows) {
+  const DefaultBeat b;
+  ASSERT_TRUE(b.run.status.ok()) << b.run.status.message;
+  const Trajectory& tr = b.run.trajectory;
+  const Eigen::VectorXd V = tr.channel("V_lv"), P = tr.channel("P_lv");
+  const Eigen::VectorXd q_ar = tr.channel("q_ar"), q_at = tr.channel("q_at");
+  const double C_cav = b.space.nominal()(b.space.index_or_throw("C_cav"));
+  const Eigen::Index es = b.end_systole(), last = tr.samples() - 1;
+  ASSERT_GT(es, 0);
+  const double h = tr.times(1) - tr.times(0);
+  auto one_step = [&](Eigen::Index a, Eigen::Index z) {
+    return h * (std::abs(q_ar(a) - q_at(a)) + std::abs(q_ar(z) - q_at(z)));
+  };
+
+  const double sv = V(0) - V(es);
+  const double outflow = trapezoid(tr.times, q_ar, 0, es), leak = -trapezoid(tr.times, q_at, 0, es);
+  EXPECT_NEAR(sv, outflow + leak + C_cav * (P(es) - P(0)), one_step(0, es))
+      << "SV " << sv / kMilliLitre << " mL, aortic outflow " << outflow / kMilliLitre
+      << " mL, leak " << leak / kMilliLitre << " mL";
+  // The aortic outflow is nearly all of the stroke volume: the leak and C_cav are small.
+  EXPECT_NEAR(outflow, sv, 0.01 * sv);
+
+  const double inflow = trapezoid(tr.times, q_at, 0, last);
+  const double out_beat = trapezoid(tr.times, q_ar, 0, last);
+  EXPECT_NEAR(inflow, out_beat + (V(last) - V(0)) + C_cav * (P(last) - P(0)), one_step(0, last))
+      << "mitral inflow " << inflow / kMilliLitre << " mL, aortic outflow " << out_beat / kMilliLitre
+      << " mL";
+  EXPECT_NEAR(inflow, out_beat, 1e-3 * V(0));  // periodic beat (periodic_tolerance 1e-3 on V)
+}
+
+// (d) The EF of the default (healthy) parameters, computed from the integrated flows of (c) and
+// the volume of (a), lies in the normal adult CMR range: mean +- 2 SD of the Framingham offspring
+// cohort, women 73 +- 6 %, men 71 +- 6 % (Chuang et al. 2014, J Magn Reson Imaging 39:895):
+// 59-85 %. No published EF range of the BCS 0D model itself is reproduced here (the 0D results of
+// Caruel et al. 2014 are for their working set, which gives an EF of about 88 % in this code,
+// docs/models.md s.2.3).
+TEST(LumpedSphere, EjectionFractionFromTheValveFlowsIsInTheNormalAdultRange) {
+  const DefaultBeat b;
+  ASSERT_TRUE(b.run.status.ok()) << b.run.status.message;
+  const Trajectory& tr = b.run.trajectory;
+  const Eigen::VectorXd e = tr.channel("e_fibre"), P = tr.channel("P_lv");
+  const Eigen::VectorXd q = tr.channel("q_ar") - tr.channel("q_at");
+  const double C_cav = b.space.nominal()(b.space.index_or_throw("C_cav"));
+  const Eigen::Index es = b.end_systole();
+  ASSERT_GT(es, 0);
+  const double R = b.sphere.radius(e(0));
+  const double edv = 4.0 / 3.0 * std::numbers::pi * R * R * R;
+  const double sv = trapezoid(tr.times, q, 0, es) + C_cav * (P(es) - P(0));
+  expect_between(100.0 * sv / edv, 59.0, 85.0, "EF [%]");
 }
 
 // Passive inflation: without activation (sigma0 = k0 = 0) and at a constant atrial pressure, the
