@@ -142,6 +142,9 @@ void write_roukf_h5(const std::filesystem::path& path, const RoukfResults& resul
   h5.set_attribute("/summary", "member_runs", summary.member_runs);
   h5.set_attribute("/summary", "retries", summary.retries);
   h5.set_attribute("/summary", "skipped_analyses", summary.skipped_analyses);
+  h5.set_attribute("/summary", "nis_mean", summary.nis_mean);
+  h5.set_attribute("/summary", "nis_band_lower", summary.nis_band_lower);
+  h5.set_attribute("/summary", "nis_band_upper", summary.nis_band_upper);
   h5.set_attribute("/summary", "wall_seconds", summary.wall_seconds);
   h5.set_attribute("/summary", "passes", problem.filter.beats);
   h5.set_attribute("/summary", "forgetting", problem.filter.forgetting);

@@ -42,6 +42,10 @@ void write_roukf_json(const std::filesystem::path& path, const std::string& name
   j["member_runs"] = summary.member_runs;
   j["retries"] = summary.retries;
   j["skipped_analyses"] = summary.skipped_analyses;
+  // Filter consistency (RoukfSummary): time-averaged NIS [1] and its chi-square 95 % band.
+  j["nis_mean"] = summary.nis_mean;
+  j["nis_band_95"] = {summary.nis_band_lower, summary.nis_band_upper};
+  j["nis_frames"] = summary.nis_frames;
   j["threads"] = results.threads;
   j["wall_seconds"] = summary.wall_seconds;
   for (size_t k = 0; k < summary.parameter_names.size(); ++k) {

@@ -12,6 +12,7 @@
 #include <iomanip>
 #include <numbers>
 #include <sstream>
+#include <stdexcept>
 
 namespace sigmaheart::estimation {
 
@@ -26,10 +27,11 @@ std::optional<RoukfFailurePolicy> parse_roukf_failure_policy(const std::string& 
   return enum_from_string(kRoukfFailurePolicyNames, text);
 }
 
-constexpr std::array<EnumName<RoukfTermination>, 5> kRoukfTerminationNames{{
+constexpr std::array<EnumName<RoukfTermination>, 6> kRoukfTerminationNames{{
     {RoukfTermination::kCompleted, "completed"}, {RoukfTermination::kMemberFailed, "member failed"},
     {RoukfTermination::kCancelled, "cancelled"}, {RoukfTermination::kInvalidInput, "invalid input"},
     {RoukfTermination::kNumericalFailure, "numerical failure"},
+    {RoukfTermination::kEstimateOutOfBounds, "estimate out of bounds"},
 }};
 const char* to_string(RoukfTermination t) { return enum_to_string(kRoukfTerminationNames, t); }
 
@@ -100,6 +102,21 @@ std::string describe_theta(const model::ParameterSpace& space, const Eigen::Vect
   return s.str();
 }
 
+// "name = value unit outside [lower, upper]" for every estimated parameter outside its simulator
+// bounds; empty when all are inside.
+std::string out_of_bounds(const model::ParameterSpace& space, const Eigen::VectorXd& theta,
+                          const std::vector<int>& estimated) {
+  std::ostringstream s;
+  s << std::setprecision(6);
+  for (int i : estimated) {
+    const auto& q = space[i];
+    if (theta(i) >= q.lower && theta(i) <= q.upper) continue;
+    s << (s.tellp() > 0 ? "; " : "") << q.name << " = " << theta(i) << " " << q.unit
+      << " outside [" << q.lower << ", " << q.upper << "]";
+  }
+  return s.str();
+}
+
 // Log-determinant of an SPD matrix from its Cholesky factor.
 double log_det(const Eigen::LLT<Eigen::MatrixXd>& llt) {
   return 2.0 * llt.matrixL().toDenseMatrix().diagonal().array().log().sum();
@@ -114,6 +131,20 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const Prior& 
   auto finish = [&](RoukfTermination t, std::string message) -> RoukfSummary& {
     summary.termination = t;
     summary.message = std::move(message);
+    summary.nis_frames = 0;
+    summary.nis_dof = 0;
+    double nis_sum = 0.0;
+    for (const auto& st : summary.steps) {
+      if (st.observed == 0) continue;
+      ++summary.nis_frames;
+      summary.nis_dof += st.observed;
+      nis_sum += st.nis;
+    }
+    if (summary.nis_frames > 0) {
+      summary.nis_mean = nis_sum / summary.nis_frames;
+      summary.nis_band_lower = chi_square_quantile(summary.nis_dof, 0.025) / summary.nis_frames;
+      summary.nis_band_upper = chi_square_quantile(summary.nis_dof, 0.975) / summary.nis_frames;
+    }
     if (options.truth && t != RoukfTermination::kInvalidInput) {
       summary.pass_error_percent = pass_errors_percent(summary, *options.truth, options.beats);
       summary.passes_to_within_10_percent = passes_to_within(summary.pass_error_percent, 10.0);
@@ -469,6 +500,15 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const Prior& 
       summary.theta_std = prior.theta_std(rec.eta, rec.eta_std);
       t_prev = t;
       summary.steps.push_back(std::move(rec));
+      if (const std::string outside = out_of_bounds(space, theta_of(x.tail(p)), estimated);
+          !outside.empty()) {
+        summary.state = model::State{t_prev, x.head(ny)};
+        summary.L = L;
+        summary.U = U;
+        return finish(RoukfTermination::kEstimateOutOfBounds,
+                      "roukf: the estimate left the parameter bounds at t = " + std::to_string(t) +
+                          " s: " + outside);
+      }
       if (options.on_step && !options.on_step(summary.steps.back())) {
         summary.state = model::State{t_prev, x.head(ny)};
         summary.L = L;
@@ -481,6 +521,21 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const Prior& 
   summary.L = L;
   summary.U = U;
   return finish(RoukfTermination::kCompleted, "all frames assimilated");
+}
+
+double chi_square_quantile(int dof, double prob) {
+  double z = 0.0;  // standard normal quantile
+  if (prob == 0.025) {
+    z = -1.959963984540054;
+  } else if (prob == 0.975) {
+    z = 1.959963984540054;
+  } else {
+    throw std::invalid_argument("chi_square_quantile: only the 2.5 % and 97.5 % quantiles");
+  }
+  if (dof < 1) throw std::invalid_argument("chi_square_quantile: dof must be >= 1");
+  const double k = dof;
+  const double c = 2.0 / (9.0 * k);
+  return k * std::pow(1.0 - c + z * std::sqrt(c), 3);
 }
 
 std::unique_ptr<model::SteppableSimulator> refine_by_time_step(const model::SteppableSimulator& s,
@@ -512,6 +567,10 @@ std::string RoukfSummary::brief_report() const {
     << parameter_names.size() << ", " << members << " members, " << member_runs
     << " member runs, " << retries << " retries, " << skipped_analyses << " skipped analyses, "
     << std::fixed << std::setprecision(2) << wall_seconds << " s";
+  if (nis_frames > 0) {
+    s << ", mean NIS " << nis_mean << " (95 % band " << nis_band_lower << "-" << nis_band_upper
+      << " over " << nis_frames << " frames)";
+  }
   if (termination != RoukfTermination::kCompleted) s << " (" << message << ")";
   return s.str();
 }

@@ -143,9 +143,12 @@ struct RoukfOptions {
 };
 
 // How a run ended. Bad input is reported up front as kInvalidInput; failed members (past the
-// failure policy) and numerical failures (a covariance factor that is not positive definite, a
-// non-finite update) end the run with the steps done so far; run_roukf never throws for them.
-enum class RoukfTermination { kCompleted, kMemberFailed, kCancelled, kInvalidInput, kNumericalFailure };
+// failure policy), numerical failures (a covariance factor that is not positive definite, a
+// non-finite update) and an analysed parameter outside the simulator's bounds
+// (kEstimateOutOfBounds) end the run with the steps done so far; run_roukf never throws for them.
+enum class RoukfTermination {
+  kCompleted, kMemberFailed, kCancelled, kInvalidInput, kNumericalFailure, kEstimateOutOfBounds,
+};
 const char* to_string(RoukfTermination t);
 
 struct RoukfSummary {
@@ -170,6 +173,15 @@ struct RoukfSummary {
   int member_runs = 0;
   int retries = 0;
   int skipped_analyses = 0;
+  // Filter consistency: the NIS averaged over the analysed frames and its 95 % band. With a
+  // consistent filter the sum of the NIS over frames is chi-square with nis_dof = sum of the
+  // observed channel counts degrees of freedom (Bar-Shalom, Li & Kirubarajan 2001, Estimation with
+  // Applications to Tracking and Navigation, s.5.4.2), so the mean lies in
+  // [chi2_0.025(nis_dof), chi2_0.975(nis_dof)] / nis_frames with probability 0.95.
+  double nis_mean = 0.0;
+  int nis_frames = 0;
+  int nis_dof = 0;
+  double nis_band_lower = 0.0, nis_band_upper = 0.0;
   double wall_seconds = 0.0;
 
   bool ok() const { return termination == RoukfTermination::kCompleted; }
@@ -183,6 +195,12 @@ struct RoukfSummary {
 // advanced. Never throws for bad input, member or numerical failures (see termination).
 RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const Prior& prior,
                        const RoukfData& data, const RoukfOptions& options);
+
+// Quantile of the chi-square distribution with `dof` degrees of freedom at probability `prob`, by the
+// Wilson-Hilferty cube-root normal approximation (Wilson & Hilferty 1931, PNAS 17:684, eq. 2;
+// relative error below 1 % for dof >= 10 at 2.5 % and 97.5 %). prob in {0.025, 0.975}
+// (the normal quantile +-1.959964); other values throw std::invalid_argument.
+double chi_square_quantile(int dof, double prob);
 
 // RoukfOptions::refine through SteppableSimulator::with_time_step_factor(2^-level).
 std::unique_ptr<model::SteppableSimulator> refine_by_time_step(const model::SteppableSimulator& s,

@@ -97,5 +97,28 @@ TEST(PersonalizeCommand, AnAbortedFilterExitsOneAndKeepsTheStepsDone) {
   EXPECT_EQ(f.read_vector("/steps/time").size(), 1);
 }
 
+TEST(PersonalizeCommand, ANonFiniteAnalysisExitsOneWithTheStatusInWordsAndTheStepsDone) {
+  const auto dir = scratch_dir();
+  // Frame 3 of the bundled data with a value the filter cannot weigh: R^-1 (y - z) overflows.
+  std::string csv = read_file(twin_data());
+  const size_t row = csv.find("\n56.666");
+  ASSERT_NE(row, std::string::npos);
+  const size_t from = csv.find(", ", row) + 2, to = csv.find(",", from);
+  csv.replace(from, to - from, "1e305");
+  const auto data = write_file(dir / "overflow.csv", csv);
+  std::string text = config_with("sigma0: {segments: all, spread: 50 %}");
+  text.replace(text.find(twin_data()), twin_data().size(), data.string());
+  const auto cfg = write_file(dir / "overflow.yaml", text);
+  const std::string h5 = (dir / "overflow.h5").string(), json = (dir / "overflow.json").string();
+  const CliRun r = cli({"personalize", cfg.string(), "-o", h5, "--summary", json, "--threads", "2"});
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("numerical failure"), std::string::npos) << r.err;
+  io::Hdf5Reader f(h5);
+  EXPECT_EQ(f.string_attribute("/summary", "termination"), "numerical failure");
+  EXPECT_EQ(f.read_vector("/steps/time").size(), 2);  // frames 1 and 2 kept
+  const auto j = nlohmann::json::parse(read_file(json));
+  EXPECT_EQ(j["termination"], "numerical failure");
+}
+
 }  // namespace
 }  // namespace sigmaheart::app::personalize_testing

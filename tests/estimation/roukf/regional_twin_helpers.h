@@ -16,11 +16,11 @@ struct TwinOutcome {
   Eigen::MatrixXd errors;  // beats x segments, relative
 };
 
-inline TwinOutcome run_twin(int beats) {
+// The twin with `o` (its model: LBBB, 17 AHA patches), `beats` passes.
+inline TwinOutcome run_twin(int beats, RegionalTwinOptions o = {}) {
   model::lumped::RegionalOptions mo;
   mo.activation = model::lumped::ActivationPattern::kLbbb;
   model::lumped::RegionalVentricle model(mo);
-  RegionalTwinOptions o;
   o.model = mo;
   o.beats = beats;
   TwinOutcome out;

@@ -480,6 +480,57 @@ TEST(Roukf, SummaryCarriesTheDeltaStdAndTheErrorsAgainstATruthAfterEachPass) {
   EXPECT_EQ(s.passes_to_within_10_percent, passes_to_within(s.pass_error_percent, 10.0));
 }
 
+TEST(Roukf, AnEstimateLeavingTheParameterBoundsEndsTheRunWithTheStepsDone) {
+  LinearSimulator sim;  // the data's truth has a = 1.5; the bounds stop a at 1.2
+  sim.space = model::ParameterSpace({{"a", "1", 1.0, -10, 1.2, "first"},
+                                     {"b", "1", 2.0, -10, 10, "second"}});
+  const RoukfSummary s = run_roukf(sim, linear_prior(), make_data(sim, 12), linear_options());
+  EXPECT_EQ(s.termination, RoukfTermination::kEstimateOutOfBounds);
+  EXPECT_STREQ(to_string(s.termination), "estimate out of bounds");
+  EXPECT_NE(s.message.find("a = "), std::string::npos) << s.message;
+  EXPECT_NE(s.message.find("outside [-10, 1.2]"), std::string::npos) << s.message;
+  ASSERT_FALSE(s.steps.empty());
+  EXPECT_LT(s.steps.size(), 12u);
+  EXPECT_GT(s.steps.back().theta(0), 1.2);  // the offending step is kept
+  EXPECT_TRUE(s.has_estimate());
+}
+
+TEST(Roukf, ANonFiniteAnalysisIsANumericalFailureWithTheStepsDone) {
+  LinearSimulator sim;
+  RoukfData data = make_data(sim, 4);
+  data.values(1, 0) = 1e308;  // finite, but R^-1 d overflows
+  const RoukfSummary s = run_roukf(sim, linear_prior(), data, linear_options());
+  EXPECT_EQ(s.termination, RoukfTermination::kNumericalFailure);
+  EXPECT_NE(s.message.find("not finite"), std::string::npos) << s.message;
+  EXPECT_EQ(s.steps.size(), 1u);
+  EXPECT_TRUE(s.steps[0].x.allFinite());
+}
+
+TEST(Roukf, MeanNisAndItsChiSquareBandCoverTheAnalysedFrames) {
+  LinearSimulator sim;
+  RoukfData data = make_data(sim, 6);
+  data.values(2, 1) = std::nan("");                     // 1 channel at frame 2
+  data.values.row(4).setConstant(std::nan(""));        // frame 4: prediction only
+  const RoukfSummary s = run_roukf(sim, linear_prior(), data, linear_options());
+  ASSERT_TRUE(s.ok()) << s.message;
+  double sum = 0.0;
+  for (const auto& st : s.steps) sum += st.nis;
+  EXPECT_EQ(s.nis_frames, 5);
+  EXPECT_EQ(s.nis_dof, 9);
+  EXPECT_NEAR(s.nis_mean, sum / 5, 1e-12);
+  EXPECT_NEAR(s.nis_band_lower, chi_square_quantile(9, 0.025) / 5, 1e-15);
+  EXPECT_NEAR(s.nis_band_upper, chi_square_quantile(9, 0.975) / 5, 1e-15);
+}
+
+TEST(Roukf, ChiSquareQuantilesMatchTheTables) {
+  // Tables (e.g. Abramowitz & Stegun 1964, table 26.8): chi2_0.025 and chi2_0.975.
+  EXPECT_NEAR(chi_square_quantile(10, 0.025), 3.247, 0.01 * 3.247);
+  EXPECT_NEAR(chi_square_quantile(10, 0.975), 20.483, 0.001 * 20.483);
+  EXPECT_NEAR(chi_square_quantile(100, 0.025), 74.222, 0.001 * 74.222);
+  EXPECT_NEAR(chi_square_quantile(100, 0.975), 129.561, 0.001 * 129.561);
+  EXPECT_THROW(chi_square_quantile(10, 0.5), std::invalid_argument);
+}
+
 TEST(Roukf, AUniformPriorIsBadInputNotAnException) {
   LinearSimulator sim;
   Prior prior = linear_prior();
