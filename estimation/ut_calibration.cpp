@@ -515,10 +515,25 @@ UtSummary UtCalibration::run_local(const Start& start) {
     return objective.fit(theta, one.Z.row(0).transpose(), one.status[0]);
   };
 
+  auto numerical_failure = [&](int it, const std::string& what) {
+    summary.termination = UtTermination::kNumericalFailure;
+    summary.message = "iteration " + std::to_string(it) + ": " + what;
+  };
   // The sigma points of (eta_c, P_c) with the failure policy: fills rec's members; false when the
-  // policy gave up (the summary then says why). With run_center the centre joins the batch.
-  auto sample = [&](int it, const Eigen::VectorXd& eta_c, const Eigen::MatrixXd& S,
+  // policy gave up or P_c has no square root (the summary then says why). With run_center the
+  // centre joins the batch.
+  auto sample = [&](int it, const Eigen::VectorXd& eta_c, const Eigen::MatrixXd& P_c,
                     UtIteration& rec, bool run_center) {
+    rec.eta_center = eta_c;
+    rec.P_center = P_c;
+    bool used_fallback = false;
+    const std::optional<Eigen::MatrixXd> S_c = safe_sqrt(P_c, &used_fallback);
+    if (!S_c) {
+      numerical_failure(it, "no square root of the covariance");
+      return false;
+    }
+    if (used_fallback) log_debug("UT iteration {}: covariance square root by eigen fallback", it);
+    const Eigen::MatrixXd& S = *S_c;
     const Eigen::VectorXd theta_c = to_theta(eta_c);
     double factor = options_.sample_scale;
     for (int attempt = 0;; ++attempt) {
@@ -601,11 +616,6 @@ UtSummary UtCalibration::run_local(const Start& start) {
     mo.Ptz = dE * sp.wc.asDiagonal() * dZ.transpose() / f2;
     return mo;
   };
-  auto numerical_failure = [&](int it, const std::string& what) {
-    summary.termination = UtTermination::kNumericalFailure;
-    summary.message = "iteration " + std::to_string(it) + ": " + what;
-  };
-
   Eigen::VectorXd eta_last = start.eta;
   Eigen::MatrixXd P_last = P0;
   std::optional<UtFit> first_center_fit = start.fit;
@@ -632,17 +642,9 @@ UtSummary UtCalibration::run_local(const Start& start) {
       current_iteration = it;
       UtIteration rec;
       rec.iteration = it;
-      rec.eta_center = eta_c;
-      rec.P_center = P_c;
       rec.center_fit = fit_c;
       rec.objective = phi_c;
-      bool used_fallback = false;
-      const std::optional<Eigen::MatrixXd> S = safe_sqrt(P_c, &used_fallback);
-      if (!S) {
-        numerical_failure(it, "no square root of the covariance");
-        break;
-      }
-      if (!sample(it, eta_c, *S, rec, false)) break;
+      if (!sample(it, eta_c, P_c, rec, false)) break;
       const Moments mo = moments(rec);
       // z ~ A eta + b over the sigma points of the current posterior approximation.
       const Eigen::MatrixXd A = Eigen::LLT<Eigen::MatrixXd>(P_c).solve(mo.Ptz).transpose();  // m x p
@@ -790,16 +792,7 @@ UtSummary UtCalibration::run_local(const Start& start) {
           break;
         }
       }
-      rec.eta_center = eta_c;
-      rec.P_center = P_c;
-      bool used_fallback = false;
-      const std::optional<Eigen::MatrixXd> S_c = safe_sqrt(P_c, &used_fallback);
-      if (!S_c) {
-        numerical_failure(it, "no square root of the covariance");
-        break;
-      }
-      if (used_fallback) log_debug("UT iteration {}: covariance square root by eigen fallback", it);
-      const bool accepted = sample(it, eta_c, *S_c, rec, need_center);
+      const bool accepted = sample(it, eta_c, P_c, rec, need_center);
       if (it == 0) first_center_fit = rec.center_fit;
       if (!accepted) break;
       if (summary.innovation == UtInnovation::kCenter && !rec.center_fit->status.ok()) {
