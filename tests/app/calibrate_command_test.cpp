@@ -62,6 +62,26 @@ TEST(CalibrateCommand, RecoversAHiddenTruthFromSynthesizedCurves) {
   EXPECT_NE(r.out.find("RMS residual in noise standard deviations"), std::string::npos);
 }
 
+TEST(CalibrateCommand, AGlobalStartFromAFarPriorListsEveryStartAndKeepsTheBestObjective) {
+  const auto dir = scratch_dir();
+  make_observations(dir);
+  // Prior 40 % below the truth of sigma0 (5.8e4 Pa); `log` is given as logit on the model's
+  // bounds [0, 1e7] Pa, so no member can leave them.
+  const auto cfg = write_file(
+      dir / "cal.yaml",
+      config("  sigma0: {prior: 3.5e4, spread: 30 %}\n  P_at0: {spread: 20 %}\n", kObservations,
+             "{max_iterations: 20, tolerance: 1.0e-2, global_start: {samples: 8, keep: 2}}"));
+  const CliRun r = cli({"--log-level", "off", "calibrate", cfg.string(), "-o", (dir / "r.h5").string(),
+                        "--summary", (dir / "r.json").string(), "--threads", "2"});
+  ASSERT_EQ(r.code, kExitOk) << r.err;
+  const auto j = nlohmann::json::parse(read_file(dir / "r.json"));
+  ASSERT_EQ(j["starts"].size(), 2u);
+  double best = j["objective"].get<double>();
+  for (const auto& st : j["starts"]) EXPECT_GE(st["objective"].get<double>(), best);
+  EXPECT_NEAR(j["parameters"]["sigma0"]["value"].get<double>(), 5.8e4, 0.05 * 5.8e4);
+  EXPECT_NE(read_file(dir / "r.h5").find("logit"), std::string::npos);  // /estimate/transform
+}
+
 // A calibration that is not a success: exit 1, the status in words on stderr, in the JSON summary
 // and in the HDF5 results, which are still written.
 struct FailedCase {
