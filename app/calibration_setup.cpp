@@ -8,6 +8,7 @@
 #include "observers/global_indices.h"
 #include "observers/observation_builder.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -165,6 +166,26 @@ void parse_inline_observations(const ConfigNode& obs,
   }
 }
 
+// Bounds are always respected (docs/estimation.md s.1.1): a `log` prior on a parameter whose
+// bounds the log's range (0, inf) exceeds is given the bounded transform logit on
+// [max(lower, 0), upper], which is a log transform of theta - lower well inside the bounds; the
+// spread is converted again at the prior mean, so `30 %` keeps its meaning there.
+estimation::PriorParameter bounded_by_the_model(estimation::PriorParameter c, const model::Parameter& p) {
+  if (c.transform.kind != estimation::TransformKind::kLog) return c;
+  const double lower = std::max(p.lower, 0.0);
+  if (!std::isfinite(p.upper) && lower == 0.0) return c;
+  if (!std::isfinite(p.upper)) return c;  // lower > 0 without an upper bound: Prior::validate reports it
+  estimation::Transform t;
+  t.kind = estimation::TransformKind::kLogit;
+  t.lower = lower;
+  t.upper = p.upper;
+  const double theta0 = c.to_theta(c.mean_eta);
+  // The std of theta at the prior mean, kept: std_eta' = std_eta T_log'(eta0) / T_logit'(eta0').
+  const double theta_std = c.std_eta * c.transform.dtheta_deta(c.mean_eta);
+  return estimation::PriorParameter::gaussian(c.name, c.unit, theta0, theta_std,
+                                              estimation::SpreadKind::kAbsolute, t, t.lower, t.upper);
+}
+
 estimation::PriorParameter parse_estimated(const Config& config, const std::string& name,
                                            const ConfigNode& node) {
   const auto& space = config.simulator.parameters;
@@ -176,14 +197,34 @@ estimation::PriorParameter parse_estimated(const Config& config, const std::stri
     throw InputError(node.location(), msg);
   }
   node.check_keys({"prior", "spread", "transform", "bounds"});
-  return parse_estimated_parameter(space[*index], node);
+  try {
+    return bounded_by_the_model(parse_estimated_parameter(space[*index], node), space[*index]);
+  } catch (const std::invalid_argument& e) {
+    node.fail(std::string(e.what()) + " (bounds of '" + name + "': the prior must lie strictly inside)");
+  }
+}
+
+estimation::UtGlobalStart parse_global_start(const ConfigNode& node) {
+  estimation::UtGlobalStart g;
+  if (!node.is_map()) node.fail("expected {samples: N, keep: k, width: 3}");
+  node.check_keys({"samples", "keep", "width"});
+  g.samples = node.require_child("samples").as<int>();
+  if (g.samples < 1) node["samples"].fail("expected at least 1 screened point");
+  g.keep = node.optional<int>("keep", g.keep);
+  if (g.keep < 1 || g.keep > g.samples + 1) {
+    node["keep"].fail("expected 1 <= keep <= samples + 1 (the screen includes the prior mean)");
+  }
+  g.width = node.optional<double>("width", g.width);
+  if (!(g.width > 0)) node["width"].fail("expected a positive half-width in prior standard deviations");
+  return g;
 }
 
 estimation::UtOptions parse_ut_options(const ConfigNode& node) {
   estimation::UtOptions o;
   node.check_keys({"sigma_points", "kappa", "alpha", "beta", "mode", "max_iterations", "tolerance",
                    "inflation", "sample_scale", "failure_policy", "shrink_factor", "max_retries",
-                   "threads"});
+                   "max_rejections", "bound_margin", "global_start", "threads"});
+  o.mode = estimation::UtMode::kMap;  // the default (docs/estimation.md s.3.2)
   if (node.has("sigma_points")) {
     o.sigma.rule = *estimation::parse_sigma_rule(
         node["sigma_points"].as_choice({"simplex", "canonical", "star", "scaled"}));
@@ -193,9 +234,9 @@ estimation::UtOptions parse_ut_options(const ConfigNode& node) {
   o.sigma.beta = node.optional<double>("beta", o.sigma.beta);
   if (node.has("mode")) {
     o.mode = *estimation::parse_ut_mode(
-        node["mode"].as_choice({"one-shot", "iterate-keep-spread", "iterate-inflate"}));
+        node["mode"].as_choice({"map", "iterate-map", "one-shot", "iterate-keep-spread", "iterate-inflate"}));
   }
-  o.max_iterations = node.optional<int>("max_iterations", o.mode == estimation::UtMode::kOneShot ? 1 : 6);
+  o.max_iterations = node.optional<int>("max_iterations", o.mode == estimation::UtMode::kOneShot ? 1 : 20);
   o.tolerance = node.optional<double>("tolerance", o.tolerance);
   o.inflation = node.optional<double>("inflation", o.inflation);
   o.sample_scale = node.optional<double>("sample_scale", o.sample_scale);
@@ -205,6 +246,9 @@ estimation::UtOptions parse_ut_options(const ConfigNode& node) {
   }
   o.shrink_factor = node.optional<double>("shrink_factor", o.shrink_factor);
   o.max_retries = node.optional<int>("max_retries", o.max_retries);
+  o.max_rejections = node.optional<int>("max_rejections", o.max_rejections);
+  o.bound_margin = node.optional<double>("bound_margin", o.bound_margin);
+  if (node.has("global_start")) o.global_start = parse_global_start(node["global_start"]);
   o.ensemble.threads = node.optional<int>("threads", 0);
   return o;
 }

@@ -13,11 +13,16 @@
 //   estimate:
 //     sigma0: {prior: 1.0e5, spread: 30 %, transform: log}      # prior defaults to the config value
 //     R_p:    {spread: "1.0e7 Pa s/m^3", transform: logit, bounds: [1.0e6, 2.0e8]}
+//   # a `log` prior on a parameter with a finite upper bound becomes logit on [max(lower, 0),
+//   # upper] (docs/estimation.md s.3.1, Bounds): no member or estimate leaves the model's bounds
 //   calibration:
 //     sigma_points: simplex      # simplex | canonical | star | scaled (kappa, alpha, beta)
-//     mode: iterate-keep-spread  # one-shot | iterate-keep-spread | iterate-inflate (inflation)
-//     max_iterations: 6
+//     mode: map                  # map (default) | one-shot | iterate-keep-spread | iterate-inflate
+//     max_iterations: 20         # default 20 (one-shot: 1)
 //     tolerance: 1.0e-3          # on the largest step in prior standard deviations
+//     max_rejections: 8          # map: damped candidates per iteration before "diverged"
+//     bound_margin: 1.0e-3       # "stuck at a bound" within this fraction of the prior's distance
+//     global_start: {samples: 32, keep: 3, width: 3}   # optional Sobol' screen, docs s.3.4
 //     failure_policy: shrink-and-retry   # or abort (shrink_factor, max_retries)
 #pragma once
 

@@ -1,6 +1,7 @@
 #include "estimation/ut_calibration.h"
 
 #include "estimation/enum_names.h"
+#include "estimation/sensitivity/sobol_sequence.h"
 
 #include <Eigen/Cholesky>
 #include <spdlog/spdlog.h>
@@ -43,9 +44,10 @@ std::string format_theta(const std::vector<std::string>& names, const Eigen::Vec
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
-constexpr std::array<EnumName<UtMode>, 3> kUtModeNames{{
+constexpr std::array<EnumName<UtMode>, 5> kUtModeNames{{
     {UtMode::kOneShot, "one-shot"}, {UtMode::kIterateKeepSpread, "iterate-keep-spread"},
-    {UtMode::kIterateInflate, "iterate-inflate"},
+    {UtMode::kIterateInflate, "iterate-inflate"}, {UtMode::kMap, "map"},
+    {UtMode::kMap, "iterate-map"},
 }};
 const char* to_string(UtMode mode) { return enum_to_string(kUtModeNames, mode); }
 std::optional<UtMode> parse_ut_mode(const std::string& text) {
@@ -70,11 +72,16 @@ const char* to_string(UtInnovation innovation) {
   return enum_to_string(kUtInnovationNames, innovation);
 }
 
-constexpr std::array<EnumName<UtTermination>, 5> kUtTerminationNames{{
+constexpr std::array<EnumName<UtTermination>, 10> kUtTerminationNames{{
     {UtTermination::kCompleted, "completed"}, {UtTermination::kConverged, "converged"},
-    {UtTermination::kMaxIterations, "max iterations"},
+    {UtTermination::kMaxIterations, "stopped at the iteration limit"},
     {UtTermination::kAbortedFailures, "aborted (failed runs)"},
     {UtTermination::kNumericalFailure, "numerical failure"},
+    {UtTermination::kDiverged, "diverged (no step lowers the objective)"},
+    {UtTermination::kNonFinite, "non-finite result (NaN)"},
+    {UtTermination::kWorseThanPrior, "worse than the prior"},
+    {UtTermination::kAtBound, "stuck at a bound"},
+    {UtTermination::kOneShotNotTrusted, "one-shot update not trusted"},
 }};
 const char* to_string(UtTermination termination) {
   return enum_to_string(kUtTerminationNames, termination);
@@ -95,6 +102,18 @@ std::string UtOptions::validate(int p) const {
     m << "ut calibration: shrink_factor must lie in (0, 1), got " << shrink_factor;
   } else if (max_retries < 0) {
     m << "ut calibration: max_retries must be >= 0, got " << max_retries;
+  } else if (max_rejections < 0) {
+    m << "ut calibration: max_rejections must be >= 0, got " << max_rejections;
+  } else if (!(bound_margin >= 0 && bound_margin < 1)) {
+    m << "ut calibration: bound_margin must lie in [0, 1), got " << bound_margin;
+  } else if (!(nis_alpha > 0 && nis_alpha < 0.5)) {
+    m << "ut calibration: nis_alpha must lie in (0, 0.5), got " << nis_alpha;
+  } else if (global_start.samples < 0 || global_start.keep < 1 ||
+             (global_start.samples > 0 && global_start.keep > global_start.samples + 1)) {
+    m << "ut calibration: global_start needs samples >= 0 and 1 <= keep <= samples + 1, got "
+      << global_start.samples << " samples, keep " << global_start.keep;
+  } else if (!(global_start.width > 0) || !std::isfinite(global_start.width)) {
+    m << "ut calibration: global_start width must be > 0 prior stds, got " << global_start.width;
   } else {
     return ensemble.validate();
   }
@@ -108,6 +127,16 @@ double UtFit::misfit() const {
 
 std::string UtAction::describe() const {
   std::ostringstream s;
+  if (kind == Kind::kReject) {
+    s << "iteration " << iteration << ", candidate " << attempt << ": ";
+    if (failed_members.empty()) {
+      s << "the step raised the objective (" << previous_misfit << " -> " << misfit << ")";
+    } else {
+      s << "the run at the candidate failed";
+    }
+    s << "; rejected, damping raised to lambda = " << spread_factor;
+    return s.str();
+  }
   if (kind == Kind::kBacktrack) {
     s << "iteration " << iteration << ": the step raised the misfit at the new centre ("
       << previous_misfit << " -> " << misfit << "); step halved (x" << spread_factor << ")";
@@ -124,8 +153,7 @@ std::string UtAction::describe() const {
 }
 
 bool UtSummary::ok() const {
-  return termination == UtTermination::kCompleted || termination == UtTermination::kConverged ||
-         termination == UtTermination::kMaxIterations;
+  return termination == UtTermination::kCompleted || termination == UtTermination::kConverged;
 }
 
 std::string UtSummary::brief_report() const {
@@ -139,6 +167,8 @@ std::string UtSummary::brief_report() const {
   if (fit_before && fit_after) {
     s << ", misfit " << fit_before->misfit() << " -> " << fit_after->misfit();
   }
+  if (mode == UtMode::kMap) s << ", MAP objective " << objective_prior << " -> " << objective;
+  if (!starts.empty()) s << ", best of " << starts.size() << " starts";
   return s.str();
 }
 
@@ -162,6 +192,11 @@ std::string UtSummary::full_report() const {
     }
   }
   for (const auto& a : actions) s << "  policy: " << a.describe() << "\n";
+  for (size_t k = 0; k < starts.size(); ++k) {
+    s << "  start " << k << ": " << format_theta(names, starts[k].theta_start) << " (Phi "
+      << starts[k].screen_objective << ") -> Phi " << starts[k].objective << ", "
+      << to_string(starts[k].termination) << "\n";
+  }
   return s.str();
 }
 
@@ -216,17 +251,221 @@ std::string UtCalibration::validate() const {
   return options_.validate(p);
 }
 
+namespace {
+
+// Upper quantile of the chi-square distribution with k degrees of freedom at probability 1 -
+// alpha: exact for k = 1 (z_(alpha/2)^2) and k = 2 (-2 ln alpha), else the Wilson-Hilferty
+// cube-root normal approximation (Wilson & Hilferty 1931, PNAS 17:684: (X/k)^(1/3) ~
+// N(1 - 2/(9k), 2/(9k)); 0.1 % high at k = 60, alpha = 1e-3). Normal quantiles by bisection on erfc.
+double normal_upper_quantile(double alpha) {
+  double lo = -40.0, hi = 40.0;
+  for (int i = 0; i < 200; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (0.5 * std::erfc(mid / std::sqrt(2.0)) > alpha ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+double chi2_upper_quantile(int k, double alpha) {
+  if (k == 1) return std::pow(normal_upper_quantile(0.5 * alpha), 2);
+  if (k == 2) return -2.0 * std::log(alpha);
+  const double z = normal_upper_quantile(alpha);
+  const double v = 2.0 / (9.0 * k);
+  return k * std::pow(std::max(0.0, 1.0 - v + z * std::sqrt(v)), 3);
+}
+
+// The data misfit, the prior term and the MAP objective Phi of docs/estimation.md s.3.3.
+struct Objective {
+  Eigen::VectorXd y, r_std, eta0;
+  Eigen::LLT<Eigen::MatrixXd> P0;
+
+  UtFit fit(const Eigen::VectorXd& theta, const Eigen::VectorXd& z, const model::Status& status) const {
+    UtFit f;
+    f.theta = theta;
+    f.z = z;
+    f.status = status;
+    f.residual = y - z;
+    f.normalised = f.residual.cwiseQuotient(r_std);
+    return f;
+  }
+  double prior_term(const Eigen::VectorXd& eta) const {
+    const Eigen::VectorXd d = eta - eta0;
+    return 0.5 * d.dot(P0.solve(d));
+  }
+  // NaN when the run failed.
+  double phi(const UtFit& f, const Eigen::VectorXd& eta) const { return f.misfit() + prior_term(eta); }
+};
+
+Objective make_objective(const Prior& prior, const observers::ObservationSet& obs) {
+  return {obs.y, obs.R.diagonal().cwiseSqrt(), prior.mean_eta(),
+          Eigen::LLT<Eigen::MatrixXd>(prior.covariance_eta())};
+}
+
+// A covariance square root, or nullopt when P is not finite or not decomposable (a numerical
+// failure of the run, never an exception).
+std::optional<Eigen::MatrixXd> safe_sqrt(const Eigen::MatrixXd& P, bool* used_fallback) {
+  if (!P.allFinite()) return std::nullopt;
+  try {
+    return covariance_sqrt(P, used_fallback);
+  } catch (const std::runtime_error&) {
+    return std::nullopt;
+  }
+}
+
+// The honest outcome of a finished local run (docs/estimation.md s.3.4), in this order: a
+// non-finite estimate or fit, an estimate stuck at a bound, a fit worse than the prior's, an
+// untrusted one-shot update. A run the policy or the numerics already ended keeps its termination.
+void classify(UtSummary& s, const UtOptions& o, const Prior& prior, int m) {
+  if (s.mode == UtMode::kOneShot) s.nis_threshold = chi2_upper_quantile(m, o.nis_alpha);
+  const bool ended = s.termination == UtTermination::kAbortedFailures ||
+                     s.termination == UtTermination::kNumericalFailure ||
+                     s.termination == UtTermination::kDiverged;
+  std::ostringstream why;
+  why.precision(6);
+  if (!ended) {
+    const double before = s.fit_before ? s.fit_before->misfit() : kNaN;
+    const double after = s.fit_after ? s.fit_after->misfit() : kNaN;
+    std::ostringstream bound;
+    bound.precision(6);
+    for (int j = 0; j < prior.size() && bound.str().empty(); ++j) {
+      const PriorParameter& par = prior[j];
+      const double theta = s.theta_of_eta_mean(j);
+      const double centre = s.theta_prior(j);
+      const bool low = std::isfinite(par.lower) && theta - par.lower <= o.bound_margin * (centre - par.lower);
+      const bool high = std::isfinite(par.upper) && par.upper - theta <= o.bound_margin * (par.upper - centre);
+      if (low || high) {
+        bound << par.name << " = " << theta << " " << par.unit << " is at its " << (low ? "lower" : "upper")
+              << " bound " << (low ? par.lower : par.upper) << " " << par.unit << " (within "
+              << o.bound_margin << " of the prior's distance to it)";
+      }
+    }
+    if (!s.eta_mean.allFinite() || !s.theta_of_eta_mean.allFinite() ||
+        (s.fit_after && !std::isfinite(after))) {
+      s.termination = UtTermination::kNonFinite;
+      why << "the estimate (" << format_theta(s.names, s.theta_of_eta_mean) << ") has a non-finite misfit "
+          << after;
+      if (s.fit_after && !s.fit_after->status.ok()) why << ": " << s.fit_after->status.message;
+    } else if (!bound.str().empty()) {
+      s.termination = UtTermination::kAtBound;
+      why << bound.str();
+    } else if (after > before) {
+      s.termination = UtTermination::kWorseThanPrior;
+      why << "the calibrated curves fit worse than the prior's: data misfit " << before << " -> " << after;
+    } else if (s.mode == UtMode::kOneShot && !s.iterations.empty() &&
+               s.iterations.front().nis > s.nis_threshold) {
+      s.termination = UtTermination::kOneShotNotTrusted;
+      why << "the normalised innovation squared " << s.iterations.front().nis << " exceeds the chi-square("
+          << m << ") quantile " << s.nis_threshold << " at 1 - " << o.nis_alpha
+          << ": the prior is far from the data, a single linear update cannot be trusted (use mode: map)";
+    }
+  }
+  if (!why.str().empty()) {
+    s.message = why.str() + (s.message.empty() ? std::string() : "; " + s.message);
+  } else if (s.message.empty()) {
+    why << to_string(s.termination);
+    if (!s.iterations.empty()) why << " (last step " << s.iterations.back().step << " prior stds)";
+    s.message = why.str();
+  }
+}
+
+}  // namespace
+
+struct UtCalibration::Start {
+  Eigen::VectorXd eta;             // where the run begins
+  std::optional<UtFit> fit;        // the model there, when already run
+  std::optional<UtFit> prior_fit;  // the model at the prior mean, when already run
+};
+
 UtSummary UtCalibration::run() {
   if (const std::string e = validate(); !e.empty()) throw std::invalid_argument(e);
+  if (options_.global_start.samples > 0) return run_global();
+  return run_local(Start{prior_.mean_eta(), std::nullopt, std::nullopt});
+}
+
+UtSummary UtCalibration::run_global() {
+  const int p = prior_.size();
+  const Objective objective = make_objective(prior_, observations_);
+  const UtGlobalStart& g = options_.global_start;
+  // Row 0: the prior mean; rows 1..N: Sobol' points 1..N (point 0 is the box's corner) mapped to
+  // eta0 + width sigma0 (2u - 1).
+  sensitivity::SobolSequenceOptions so;
+  so.dimension = p;
+  so.scrambling = sensitivity::Scrambling::kNone;
+  const Eigen::MatrixXd U = sensitivity::SobolSequence(so).points(1, static_cast<std::uint64_t>(g.samples));
+  const Eigen::VectorXd eta0 = prior_.mean_eta();
+  const Eigen::VectorXd sigma0 = prior_.std_eta();
+  Eigen::MatrixXd eta(g.samples + 1, p);
+  eta.row(0) = eta0.transpose();
+  for (int i = 0; i < g.samples; ++i) {
+    eta.row(i + 1) = (eta0.array() + g.width * sigma0.array() * (2.0 * U.row(i).transpose().array() - 1.0))
+                         .matrix()
+                         .transpose();
+  }
+  Eigen::MatrixXd theta(eta.rows(), p);
+  for (Eigen::Index i = 0; i < eta.rows(); ++i) theta.row(i) = prior_.to_theta(eta.row(i).transpose()).transpose();
+
+  EnsembleOptions eo = options_.ensemble;
+  eo.progress = [&](int done, int total) {
+    if (options_.progress) options_.progress(UtProgress{-1, 0, done, total});
+  };
+  Ensemble ensemble(model_, eo);
+  const EnsembleResult screen = ensemble.evaluate(theta);
+  std::vector<UtFit> fits;
+  std::vector<double> phi;
+  for (Eigen::Index i = 0; i < eta.rows(); ++i) {
+    fits.push_back(objective.fit(theta.row(i).transpose(), screen.Z.row(i).transpose(),
+                                 screen.status[static_cast<size_t>(i)]));
+    const double f = objective.phi(fits.back(), eta.row(i).transpose());
+    phi.push_back(std::isfinite(f) ? f : std::numeric_limits<double>::infinity());
+  }
+  std::vector<int> order(phi.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int>(i);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return phi[static_cast<size_t>(a)] < phi[static_cast<size_t>(b)]; });
+
+  std::optional<UtSummary> best;
+  std::vector<UtStart> starts;
+  int simulations = static_cast<int>(eta.rows());
+  int failures = screen.failures();
+  for (int k = 0; k < g.keep; ++k) {
+    const auto i = static_cast<size_t>(order[static_cast<size_t>(k)]);
+    const auto row = static_cast<Eigen::Index>(i);
+    UtSummary s = run_local(Start{eta.row(row).transpose(), fits[i], fits[0]});
+    simulations += s.simulations;
+    failures += s.failures;
+    UtStart st;
+    st.theta_start = theta.row(row).transpose();
+    st.screen_objective = phi[i];
+    st.objective = s.objective;
+    st.termination = s.termination;
+    st.iterations = static_cast<int>(s.iterations.size());
+    st.simulations = s.simulations;
+    st.theta = s.theta_of_eta_mean;
+    starts.push_back(st);
+    const auto rank = [](const UtSummary& x) {
+      return std::isfinite(x.objective) ? x.objective : std::numeric_limits<double>::infinity();
+    };
+    if (!best || rank(s) < rank(*best)) best = std::move(s);
+  }
+  best->starts = std::move(starts);
+  best->simulations = simulations;
+  best->failures = failures;
+  best->message += "; global start: " + std::to_string(g.samples) + " screened, best of " +
+                   std::to_string(g.keep) + " local runs";
+  return *best;
+}
+
+UtSummary UtCalibration::run_local(const Start& start) {
   const int p = prior_.size();
   const int m = observations_.size();
   const Eigen::VectorXd& y = observations_.y;
+  const Objective objective = make_objective(prior_, observations_);
+  const bool map = options_.mode == UtMode::kMap;
 
   UtSummary summary;
   summary.mode = options_.mode;
   summary.rule = options_.sigma.rule;
   summary.innovation = options_.innovation;
-  if (summary.innovation == UtInnovation::kAuto) {
+  if (summary.innovation == UtInnovation::kAuto || map) {
     summary.innovation = options_.mode == UtMode::kOneShot ? UtInnovation::kSigmaMean
                                                            : UtInnovation::kCenter;
   }
@@ -237,30 +476,10 @@ UtSummary UtCalibration::run() {
   summary.theta_prior = prior_.nominal_theta();
   summary.theta_prior_std = prior_.prior_theta_std();
   const Eigen::VectorXd& sigma0 = summary.eta_prior_std;
+  const Eigen::VectorXd& eta0 = summary.eta_prior_mean;
   const Eigen::MatrixXd P0 = prior_.covariance_eta();
 
   auto to_theta = [&](const Eigen::VectorXd& eta) { return prior_.to_theta(eta); };
-  // A covariance square root, or nullopt when P is not finite or not decomposable (a numerical
-  // failure of the run, never an exception).
-  auto safe_sqrt = [](const Eigen::MatrixXd& P, bool* used_fallback) -> std::optional<Eigen::MatrixXd> {
-    if (!P.allFinite()) return std::nullopt;
-    try {
-      return covariance_sqrt(P, used_fallback);
-    } catch (const std::runtime_error&) {
-      return std::nullopt;
-    }
-  };
-  const Eigen::VectorXd r_std = observations_.R.diagonal().cwiseSqrt();
-  auto make_fit = [&](const Eigen::VectorXd& theta, const Eigen::VectorXd& z,
-                      const model::Status& status) {
-    UtFit fit;
-    fit.theta = theta;
-    fit.z = z;
-    fit.status = status;
-    fit.residual = y - z;
-    fit.normalised = fit.residual.cwiseQuotient(r_std);
-    return fit;
-  };
 
   // Whitening: R = L L^T; every observation-space quantity below is in L^-1 units.
   const Eigen::MatrixXd L = Eigen::LLT<Eigen::MatrixXd>(observations_.R).matrixL();
@@ -286,84 +505,52 @@ UtSummary UtCalibration::run() {
     summary.termination = UtTermination::kAbortedFailures;
     summary.message = why;
   };
+  // One forward run (a centre or a candidate), counted and its failure recorded.
+  auto run_one = [&](const Eigen::VectorXd& eta, int it) {
+    const Eigen::VectorXd theta = to_theta(eta);
+    const EnsembleResult one = ensemble.evaluate(Eigen::MatrixXd(theta.transpose()));
+    summary.simulations += 1;
+    summary.failures += one.failures();
+    if (!one.status[0].ok()) summary.failed.push_back({it, 0, -1, theta, one.status[0]});
+    return objective.fit(theta, one.Z.row(0).transpose(), one.status[0]);
+  };
 
-  Eigen::VectorXd eta_c = summary.eta_prior_mean;
-  Eigen::MatrixXd P_c = P0;
-  Eigen::VectorXd eta_last = eta_c;
-  Eigen::MatrixXd P_last = P0;
-  std::optional<UtFit> first_center_fit;
-  const int max_iterations = options_.mode == UtMode::kOneShot ? 1 : options_.max_iterations;
-  bool stopped = false;
-
-  // Backtracking of the iterate modes: a re-centred step that raises the data misfit at the new
-  // centre is halved back towards the previous centre (up to kMaxBacktracks times, recorded as
-  // actions). Without it the keep-spread iteration, a Levenberg-Marquardt-like step damped by the
-  // prior covariance, can cycle between two points on a curved misfit (seen on the lumped heart).
-  constexpr int kMaxBacktracks = 4;
-  std::optional<UtFit> previous_center_fit;
-  Eigen::VectorXd eta_previous = eta_c;
-
-  for (int it = 0; it < max_iterations && !stopped; ++it) {
-    current_iteration = it;
-    UtIteration rec;
-    rec.iteration = it;
-    if (it > 0 && need_center && options_.mode != UtMode::kOneShot && previous_center_fit &&
-        previous_center_fit->status.ok()) {
-      for (int b = 0;; ++b) {
-        const Eigen::VectorXd theta_try = to_theta(eta_c);
-        const EnsembleResult one = ensemble.evaluate(Eigen::MatrixXd(theta_try.transpose()));
-        summary.simulations += 1;
-        summary.failures += one.failures();
-        UtFit fit = make_fit(theta_try, one.Z.row(0).transpose(), one.status[0]);
-        const double misfit = fit.misfit();
-        if ((std::isfinite(misfit) && misfit <= previous_center_fit->misfit()) ||
-            b == kMaxBacktracks) {
-          rec.center_fit = fit;
-          break;
-        }
-        UtAction action;
-        action.kind = UtAction::Kind::kBacktrack;
-        action.iteration = it;
-        action.attempt = b;
-        action.spread_factor = std::ldexp(1.0, -(b + 1));
-        action.misfit = misfit;
-        action.previous_misfit = previous_center_fit->misfit();
-        summary.actions.push_back(action);
-        log_debug("UT: {}", action.describe());
-        eta_c = eta_previous + 0.5 * (eta_c - eta_previous);
-      }
-    }
+  auto numerical_failure = [&](int it, const std::string& what) {
+    summary.termination = UtTermination::kNumericalFailure;
+    summary.message = "iteration " + std::to_string(it) + ": " + what;
+  };
+  // The sigma points of (eta_c, P_c) with the failure policy: fills rec's members; false when the
+  // policy gave up or P_c has no square root (the summary then says why). With run_center the
+  // centre joins the batch.
+  auto sample = [&](int it, const Eigen::VectorXd& eta_c, const Eigen::MatrixXd& P_c,
+                    UtIteration& rec, bool run_center) {
     rec.eta_center = eta_c;
     rec.P_center = P_c;
     bool used_fallback = false;
     const std::optional<Eigen::MatrixXd> S_c = safe_sqrt(P_c, &used_fallback);
     if (!S_c) {
-      summary.termination = UtTermination::kNumericalFailure;
-      summary.message = "iteration " + std::to_string(it) + ": no square root of the covariance";
-      break;
+      numerical_failure(it, "no square root of the covariance");
+      return false;
     }
-    const Eigen::MatrixXd& S = *S_c;
     if (used_fallback) log_debug("UT iteration {}: covariance square root by eigen fallback", it);
+    const Eigen::MatrixXd& S = *S_c;
     const Eigen::VectorXd theta_c = to_theta(eta_c);
-
     double factor = options_.sample_scale;
-    bool accepted = false;
     for (int attempt = 0;; ++attempt) {
       current_attempt = attempt;
       const Eigen::MatrixXd eta_points = place_points(eta_c, factor * S, sp);  // p x r
-      const bool run_center = need_center && !rec.center_fit;
-      Eigen::MatrixXd thetas(r + (run_center ? 1 : 0), p);
+      const bool with_center = run_center && !rec.center_fit;
+      Eigen::MatrixXd thetas(r + (with_center ? 1 : 0), p);
       for (int i = 0; i < r; ++i) thetas.row(i) = to_theta(eta_points.col(i)).transpose();
-      if (run_center) thetas.row(r) = theta_c.transpose();
+      if (with_center) thetas.row(r) = theta_c.transpose();
 
       const EnsembleResult res = ensemble.evaluate(thetas);
       summary.simulations += static_cast<int>(thetas.rows());
       summary.failures += res.failures();
-      if (run_center) {
-        rec.center_fit = make_fit(theta_c, res.Z.row(r).transpose(), res.status[static_cast<size_t>(r)]);
-        if (!res.status[static_cast<size_t>(r)].ok()) {
-          summary.failed.push_back({it, attempt, -1, theta_c, res.status[static_cast<size_t>(r)]});
-        }
+      if (with_center) {
+        const auto& st = res.status[static_cast<size_t>(r)];
+        rec.center_fit = objective.fit(theta_c, res.Z.row(r).transpose(), st);
+        if (!st.ok()) summary.failed.push_back({it, attempt, -1, theta_c, st});
       }
       std::vector<int> failed;
       for (int i = 0; i < r; ++i) {
@@ -379,10 +566,7 @@ UtSummary UtCalibration::run() {
       rec.status.assign(res.status.begin(), res.status.begin() + r);
       rec.attempts = attempt + 1;
       rec.spread_factor = factor;
-      if (failed.empty()) {
-        accepted = true;
-        break;
-      }
+      if (failed.empty()) return true;
       UtAction action;
       action.iteration = it;
       action.attempt = attempt;
@@ -393,6 +577,7 @@ UtSummary UtCalibration::run() {
         action.kind = UtAction::Kind::kShrinkAndRetry;
         action.spread_factor = factor;
         summary.actions.push_back(action);
+        summary.retries += 1;
         log_debug("UT: {}", action.describe());
         continue;
       }
@@ -411,82 +596,265 @@ UtSummary UtCalibration::run() {
             << res.status[static_cast<size_t>(i)].message;
       }
       abort_with(why.str());
-      break;
+      return false;
     }
-    if (it == 0) first_center_fit = rec.center_fit;
-    if (!accepted) break;
-    if (summary.innovation == UtInnovation::kCenter && !rec.center_fit->status.ok()) {
-      UtAction action;
-      action.kind = UtAction::Kind::kAbort;
-      action.iteration = it;
-      action.attempt = rec.attempts - 1;
-      action.failed_members = {-1};
-      summary.actions.push_back(action);
-      abort_with("iteration " + std::to_string(it) + ": the centre run (" +
-                 format_theta(summary.names, theta_c) + ") failed: " +
-                 rec.center_fit->status.message);
-      break;
-    }
+  };
 
-    // The update (Marchesseau et al. 2013; docs/estimation.md s.3) in whitened observations.
-    const Eigen::MatrixXd Zw = Lt.solve(rec.Z.transpose());  // m x r
-    const Eigen::VectorXd zbar_w = Zw * sp.wm;
-    const Eigen::MatrixXd dZ = Zw.colwise() - zbar_w;
-    const Eigen::MatrixXd dE = rec.eta_members.transpose().colwise() - eta_c;
+  // The statistical linearisation of rec's members in whitened units (docs/estimation.md s.3.1).
+  struct Moments {
+    Eigen::MatrixXd Zw, Pzz, Ptz;
+    Eigen::VectorXd zbar;
+  };
+  auto moments = [&](const UtIteration& rec) {
+    Moments mo;
+    mo.Zw = Lt.solve(rec.Z.transpose());  // m x r
+    mo.zbar = mo.Zw * sp.wm;
+    const Eigen::MatrixXd dZ = mo.Zw.colwise() - mo.zbar;
+    const Eigen::MatrixXd dE = rec.eta_members.transpose().colwise() - rec.eta_center;
     const double f2 = rec.spread_factor * rec.spread_factor;
-    const Eigen::MatrixXd Pzz_w = dZ * sp.wc.asDiagonal() * dZ.transpose() / f2;
-    const Eigen::MatrixXd Ptz_w = dE * sp.wc.asDiagonal() * dZ.transpose() / f2;
-    const Eigen::MatrixXd Sw = Pzz_w + Eigen::MatrixXd::Identity(m, m);
-    const Eigen::LDLT<Eigen::MatrixXd> ldlt(Sw);
-    if (ldlt.info() != Eigen::Success || !ldlt.isPositive() ||
-        !(ldlt.vectorD().array() > 0).all()) {
-      summary.termination = UtTermination::kNumericalFailure;
-      summary.message = "iteration " + std::to_string(it) +
-                        ": P_zz + R is not positive definite (a negative centre weight?)";
-      break;
-    }
-    const Eigen::MatrixXd Kw = ldlt.solve(Ptz_w.transpose()).transpose();  // p x m
-    const Eigen::VectorXd zref_w = summary.innovation == UtInnovation::kCenter
-                                       ? Eigen::VectorXd(Lt.solve(rec.center_fit->z))
-                                       : zbar_w;
-    const Eigen::VectorXd innovation_w = yw - zref_w;
-    const Eigen::VectorXd eta_new = eta_c + Kw * innovation_w;
-    Eigen::MatrixXd P_new = P_c - Kw * Sw * Kw.transpose();
-    P_new = 0.5 * (P_new + P_new.transpose()).eval();
-    if (!eta_new.allFinite() || !P_new.allFinite()) {
-      summary.termination = UtTermination::kNumericalFailure;
-      summary.message = "iteration " + std::to_string(it) + ": the update is not finite";
-      break;
-    }
-    rec.z_bar = L * zbar_w;
-    rec.innovation = L * innovation_w;
-    rec.nis = innovation_w.dot(ldlt.solve(innovation_w));
-    rec.P_zz = L * Pzz_w * L.transpose();
-    rec.P_tz = Ptz_w * L.transpose();
-    rec.gain = Lt.transpose().solve(Kw.transpose()).transpose();  // K = Kw L^-1
-    rec.eta_mean = eta_new;
-    rec.P = P_new;
-    rec.step = ((eta_new - eta_c).cwiseAbs().cwiseQuotient(sigma0)).maxCoeff();
-    log_debug("UT iteration {}: step {:.3g} prior stds, NIS {:.4g}", it, rec.step, rec.nis);
-    summary.iterations.push_back(rec);
-    eta_last = eta_new;
-    P_last = P_new;
+    mo.Pzz = dZ * sp.wc.asDiagonal() * dZ.transpose() / f2;
+    mo.Ptz = dE * sp.wc.asDiagonal() * dZ.transpose() / f2;
+    return mo;
+  };
+  Eigen::VectorXd eta_last = start.eta;
+  Eigen::MatrixXd P_last = P0;
+  std::optional<UtFit> first_center_fit = start.fit;
+  std::optional<UtFit> last_center_fit;  // kMap: the model at eta_last
+  const int max_iterations = options_.mode == UtMode::kOneShot ? 1 : options_.max_iterations;
 
-    if (options_.mode == UtMode::kOneShot) {
-      summary.termination = UtTermination::kCompleted;
-      stopped = true;
-    } else if (rec.step < options_.tolerance) {
-      summary.termination = UtTermination::kConverged;
-      stopped = true;
-    } else if (it + 1 == max_iterations) {
-      summary.termination = UtTermination::kMaxIterations;
-      stopped = true;
+  if (map) {
+    // ---- kMap: damped Gauss-Newton on statistically linearised models (file comment). ----
+    Eigen::VectorXd eta_c = start.eta;
+    UtFit fit_c = start.fit ? *start.fit : run_one(eta_c, 0);
+    first_center_fit = fit_c;
+    double phi_c = objective.phi(fit_c, eta_c);
+    const Eigen::MatrixXd P0inv = objective.P0.solve(Eigen::MatrixXd::Identity(p, p));
+    Eigen::MatrixXd P_c = P0;
+    double lambda = 0.0, nu = 2.0;
+    bool done = false;
+    if (!fit_c.status.ok() || !std::isfinite(phi_c)) {
+      summary.actions.push_back({UtAction::Kind::kAbort, 0, 0, 1.0, 0.0, 0.0, {-1}});
+      abort_with("the starting point (" + format_theta(summary.names, fit_c.theta) +
+                 ") failed: " + (fit_c.status.ok() ? std::string("non-finite misfit") : fit_c.status.message));
+      done = true;
     }
-    previous_center_fit = rec.center_fit;
-    eta_previous = eta_c;
-    eta_c = eta_new;
-    P_c = options_.mode == UtMode::kIterateInflate ? Eigen::MatrixXd(options_.inflation * P_new)
-                                                   : P0;
+    for (int it = 0; it < max_iterations && !done; ++it) {
+      current_iteration = it;
+      UtIteration rec;
+      rec.iteration = it;
+      rec.center_fit = fit_c;
+      rec.objective = phi_c;
+      if (!sample(it, eta_c, P_c, rec, false)) break;
+      const Moments mo = moments(rec);
+      // z ~ A eta + b over the sigma points of the current posterior approximation.
+      const Eigen::MatrixXd A = Eigen::LLT<Eigen::MatrixXd>(P_c).solve(mo.Ptz).transpose();  // m x p
+      const Eigen::VectorXd rw = yw - Lt.solve(fit_c.z);  // whitened residual at the centre
+      // The update from the PRIOR (eta0, P0) with this linearisation.
+      const Eigen::MatrixXd Sw = A * P0 * A.transpose() + Eigen::MatrixXd::Identity(m, m);
+      const Eigen::LDLT<Eigen::MatrixXd> ldlt(Sw);
+      const Eigen::MatrixXd Kw = ldlt.solve(A * P0).transpose();  // p x m
+      const Eigen::VectorXd eta_gn = eta0 + Kw * (rw + A * (eta_c - eta0));
+      Eigen::MatrixXd P_post = P0 - Kw * Sw * Kw.transpose();
+      P_post = 0.5 * (P_post + P_post.transpose()).eval();
+      if (ldlt.info() != Eigen::Success || !eta_gn.allFinite() || !P_post.allFinite()) {
+        numerical_failure(it, "the linearised update is not finite");
+        break;
+      }
+      const Eigen::MatrixXd Sc = A * P_c * A.transpose() + Eigen::MatrixXd::Identity(m, m);
+      rec.z_bar = L * mo.zbar;
+      rec.innovation = L * rw;
+      rec.nis = rw.dot(Sc.ldlt().solve(rw));
+      rec.P_zz = L * mo.Pzz * L.transpose();
+      rec.P_tz = mo.Ptz * L.transpose();
+      rec.gain = Lt.transpose().solve(Kw.transpose()).transpose();
+      rec.P = P_post;
+      // Levenberg-Marquardt on the linearised Phi: H d = g with H = A^T A + (1 + lambda) P0^-1.
+      const Eigen::MatrixXd H = A.transpose() * A + P0inv;
+      const Eigen::VectorXd g = A.transpose() * rw - P0inv * (eta_c - eta0);
+      for (int candidate = 0;; ++candidate) {
+        const Eigen::VectorXd d = lambda == 0.0 ? Eigen::VectorXd(eta_gn - eta_c)
+                                                : Eigen::VectorXd((H + lambda * P0inv).ldlt().solve(g));
+        rec.step = d.cwiseAbs().cwiseQuotient(sigma0).maxCoeff();
+        rec.lambda = lambda;
+        if (!d.allFinite()) {
+          numerical_failure(it, "the damped step is not finite");
+          done = true;
+          break;
+        }
+        if (rec.step < options_.tolerance) {
+          rec.eta_mean = eta_c;
+          summary.termination = UtTermination::kConverged;
+          done = true;
+          break;
+        }
+        const Eigen::VectorXd eta_n = eta_c + d;
+        current_attempt = candidate;
+        UtFit fit_n = run_one(eta_n, it);
+        const double phi_n = objective.phi(fit_n, eta_n);
+        if (std::isfinite(phi_n) && phi_n <= phi_c) {
+          // Gain ratio of the actual to the predicted decrease (Nielsen 1999, eq. 2.3 update).
+          const double predicted = g.dot(d) - 0.5 * d.dot(H * d);
+          const double rho = predicted > 0 ? (phi_c - phi_n) / predicted : 0.0;
+          if (lambda > 0) {
+            lambda *= std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3));
+            if (lambda < 1e-3) lambda = 0.0;
+          }
+          nu = 2.0;
+          rec.eta_mean = eta_n;
+          eta_c = eta_n;
+          fit_c = std::move(fit_n);
+          phi_c = phi_n;
+          P_c = P_post;
+          break;
+        }
+        UtAction action;
+        action.kind = UtAction::Kind::kReject;
+        action.iteration = it;
+        action.attempt = candidate;
+        action.misfit = phi_n;
+        action.previous_misfit = phi_c;
+        if (!fit_n.status.ok()) action.failed_members = {-1};
+        lambda = lambda == 0.0 ? 1.0 : lambda * nu;
+        nu *= 2.0;
+        action.spread_factor = lambda;
+        summary.actions.push_back(action);
+        summary.rejected_steps += 1;
+        rec.rejected += 1;
+        log_debug("UT: {}", action.describe());
+        if (rec.rejected > options_.max_rejections) {
+          rec.eta_mean = eta_c;
+          summary.termination = UtTermination::kDiverged;
+          summary.message = "iteration " + std::to_string(it) + ": no step lowers the MAP objective (" +
+                            std::to_string(rec.rejected) + " damped candidates rejected, Phi " +
+                            std::to_string(phi_c) + ")";
+          done = true;
+          break;
+        }
+      }
+      log_debug("UT map iteration {}: step {:.3g} prior stds, Phi {:.6g}, lambda {:.3g}", it,
+                rec.step, rec.objective, rec.lambda);
+      if (rec.eta_mean.size() == 0) rec.eta_mean = eta_c;
+      summary.iterations.push_back(rec);
+      eta_last = eta_c;
+      P_last = P_post;
+      if (!done && it + 1 == max_iterations) summary.termination = UtTermination::kMaxIterations;
+    }
+    last_center_fit = fit_c;
+    eta_last = eta_c;
+  } else {
+    // ---- one-shot, iterate-keep-spread, iterate-inflate ----
+    Eigen::VectorXd eta_c = start.eta;
+    Eigen::MatrixXd P_c = P0;
+    bool stopped = false;
+    // Backtracking of the iterate modes: a re-centred step that raises the data misfit at the new
+    // centre is halved back towards the previous centre (up to kMaxBacktracks times, recorded as
+    // actions); a step still raising it ends the run (kDiverged), never accepted.
+    constexpr int kMaxBacktracks = 4;
+    std::optional<UtFit> previous_center_fit;
+    Eigen::VectorXd eta_previous = eta_c;
+
+    for (int it = 0; it < max_iterations && !stopped; ++it) {
+      current_iteration = it;
+      UtIteration rec;
+      rec.iteration = it;
+      if (it == 0 && start.fit) rec.center_fit = start.fit;
+      if (it > 0 && need_center && previous_center_fit && previous_center_fit->status.ok()) {
+        bool diverged = false;
+        for (int b = 0;; ++b) {
+          UtFit fit = run_one(eta_c, it);
+          const double misfit = fit.misfit();
+          if (std::isfinite(misfit) && misfit <= previous_center_fit->misfit()) {
+            rec.center_fit = fit;
+            break;
+          }
+          if (b == kMaxBacktracks) {
+            diverged = true;
+            summary.termination = UtTermination::kDiverged;
+            summary.message = "iteration " + std::to_string(it) + ": the step raised the misfit (" +
+                              std::to_string(previous_center_fit->misfit()) + " -> " +
+                              std::to_string(misfit) + ") after " + std::to_string(kMaxBacktracks) +
+                              " halvings; the previous centre is kept";
+            break;
+          }
+          UtAction action;
+          action.kind = UtAction::Kind::kBacktrack;
+          action.iteration = it;
+          action.attempt = b;
+          action.spread_factor = std::ldexp(1.0, -(b + 1));
+          action.misfit = misfit;
+          action.previous_misfit = previous_center_fit->misfit();
+          summary.actions.push_back(action);
+          log_debug("UT: {}", action.describe());
+          eta_c = eta_previous + 0.5 * (eta_c - eta_previous);
+        }
+        if (diverged) {
+          eta_last = eta_previous;
+          break;
+        }
+      }
+      const bool accepted = sample(it, eta_c, P_c, rec, need_center);
+      if (it == 0) first_center_fit = rec.center_fit;
+      if (!accepted) break;
+      if (summary.innovation == UtInnovation::kCenter && !rec.center_fit->status.ok()) {
+        summary.actions.push_back({UtAction::Kind::kAbort, it, rec.attempts - 1, 1.0, 0.0, 0.0, {-1}});
+        abort_with("iteration " + std::to_string(it) + ": the centre run (" +
+                   format_theta(summary.names, to_theta(eta_c)) + ") failed: " +
+                   rec.center_fit->status.message);
+        break;
+      }
+
+      // The update (Marchesseau et al. 2013; docs/estimation.md s.3) in whitened observations.
+      const Moments mo = moments(rec);
+      const Eigen::MatrixXd Sw = mo.Pzz + Eigen::MatrixXd::Identity(m, m);
+      const Eigen::LDLT<Eigen::MatrixXd> ldlt(Sw);
+      if (ldlt.info() != Eigen::Success || !ldlt.isPositive() ||
+          !(ldlt.vectorD().array() > 0).all()) {
+        numerical_failure(it, "P_zz + R is not positive definite (a negative centre weight?)");
+        break;
+      }
+      const Eigen::MatrixXd Kw = ldlt.solve(mo.Ptz.transpose()).transpose();  // p x m
+      const Eigen::VectorXd zref_w = summary.innovation == UtInnovation::kCenter
+                                         ? Eigen::VectorXd(Lt.solve(rec.center_fit->z))
+                                         : mo.zbar;
+      const Eigen::VectorXd innovation_w = yw - zref_w;
+      const Eigen::VectorXd eta_new = eta_c + Kw * innovation_w;
+      Eigen::MatrixXd P_new = P_c - Kw * Sw * Kw.transpose();
+      P_new = 0.5 * (P_new + P_new.transpose()).eval();
+      if (!eta_new.allFinite() || !P_new.allFinite()) {
+        numerical_failure(it, "the update is not finite");
+        break;
+      }
+      rec.z_bar = L * mo.zbar;
+      rec.innovation = L * innovation_w;
+      rec.nis = innovation_w.dot(ldlt.solve(innovation_w));
+      rec.P_zz = L * mo.Pzz * L.transpose();
+      rec.P_tz = mo.Ptz * L.transpose();
+      rec.gain = Lt.transpose().solve(Kw.transpose()).transpose();  // K = Kw L^-1
+      rec.eta_mean = eta_new;
+      rec.P = P_new;
+      rec.step = ((eta_new - eta_c).cwiseAbs().cwiseQuotient(sigma0)).maxCoeff();
+      if (rec.center_fit) rec.objective = rec.center_fit->misfit();
+      log_debug("UT iteration {}: step {:.3g} prior stds, NIS {:.4g}", it, rec.step, rec.nis);
+      summary.iterations.push_back(rec);
+      eta_last = eta_new;
+      P_last = P_new;
+
+      if (options_.mode == UtMode::kOneShot) {
+        summary.termination = UtTermination::kCompleted;
+        stopped = true;
+      } else if (rec.step < options_.tolerance) {
+        summary.termination = UtTermination::kConverged;
+        stopped = true;
+      } else if (it + 1 == max_iterations) {
+        summary.termination = UtTermination::kMaxIterations;
+        stopped = true;
+      }
+      previous_center_fit = rec.center_fit;
+      eta_previous = eta_c;
+      eta_c = eta_new;
+      P_c = options_.mode == UtMode::kIterateInflate ? Eigen::MatrixXd(options_.inflation * P_new)
+                                                     : P0;
+    }
   }
 
   // Estimates: eta, and the two theta "means" (transform of the mean vs sigma-point mean).
@@ -511,36 +879,37 @@ UtSummary UtCalibration::run() {
     summary.truth_error_percent = relative_errors_percent(summary.theta_of_eta_mean, *options_.truth);
   }
 
-  if (options_.evaluate_fit) {
-    summary.fit_before = first_center_fit;
-    if (summary.iterations.empty()) {
-      summary.fit_after = first_center_fit;
+  if (options_.evaluate_fit || map) {
+    // The model at the prior mean (fit_before) and at the estimate (fit_after), run once each.
+    const bool started_at_prior = start.eta == eta0;
+    if (start.prior_fit) {
+      summary.fit_before = start.prior_fit;
+    } else if (started_at_prior && first_center_fit) {
+      summary.fit_before = first_center_fit;
+    } else {
+      current_iteration = static_cast<int>(summary.iterations.size());
+      summary.fit_before = run_one(eta0, current_iteration);
+    }
+    if (last_center_fit && last_center_fit->theta == summary.theta_of_eta_mean) {
+      summary.fit_after = last_center_fit;
+    } else if (summary.iterations.empty() && started_at_prior) {
+      summary.fit_after = summary.fit_before;
     } else {
       current_iteration = static_cast<int>(summary.iterations.size());
       current_attempt = 0;
-      const EnsembleResult res = ensemble.evaluate(summary.theta_of_eta_mean.transpose());
-      summary.simulations += 1;
-      summary.failures += res.failures();
-      summary.fit_after = make_fit(summary.theta_of_eta_mean, res.Z.row(0).transpose(), res.status[0]);
-      if (!res.status[0].ok()) {
-        summary.failed.push_back({current_iteration, 0, -1, summary.theta_of_eta_mean, res.status[0]});
-      }
+      summary.fit_after = run_one(eta_last, current_iteration);
     }
   }
   auto metrics_of = [&](const std::optional<UtFit>& f) {
-    return f && f->z.size() == m ? fit_metrics(y, f->z, r_std) : missing_fit_metrics(m);
+    return f && f->z.size() == m ? fit_metrics(y, f->z, objective.r_std) : missing_fit_metrics(m);
   };
   summary.metrics_before = metrics_of(summary.fit_before);
   summary.metrics_after = metrics_of(summary.fit_after);
-  if (summary.message.empty()) {
-    std::ostringstream s;
-    s << to_string(summary.termination);
-    if (!summary.iterations.empty()) {
-      s << " (last step " << summary.iterations.back().step << " prior stds)";
-    }
-    summary.message = s.str();
-  }
+  if (summary.fit_before) summary.objective_prior = objective.phi(*summary.fit_before, eta0);
+  if (summary.fit_after) summary.objective = objective.phi(*summary.fit_after, eta_last);
+  classify(summary, options_, prior_, m);
   return summary;
 }
+
 
 }  // namespace sigmaheart::estimation

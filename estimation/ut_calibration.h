@@ -10,17 +10,44 @@
 // are commensurate; K, P_zz, P_tz are reported back in SI.
 //
 // Modes (which one ran is recorded in the Summary):
+//  - kMap (default of the iterated modes): Gauss-Newton on statistically linearised models towards
+//    the maximum a posteriori point of
+//      Phi(eta) = 0.5 |L^-1 (y - h(T(eta)))|^2 + 0.5 (eta - eta0)^T P0^-1 (eta - eta0),
+//    the iterated posterior linearisation (IPLF) of Garcia-Fernandez, Svensson, Morelande & Sarkka
+//    2015 ("Posterior linearization filter: principles and implementation using sigma points",
+//    IEEE Trans Signal Process 63(20):5561), without the linearisation-error covariance Omega so
+//    that the fixed point is the MAP (the Gauss-Newton form, Bell & Cathey 1993): at iterate eta_c the sigma points of the CURRENT posterior
+//    approximation P_c give A = P_tz^T P_c^-1 (z ~ A eta + b, b from the centre run h(eta_c)); the
+//    update starts from the PRIOR: eta+ = eta0 + K (y - b - A eta0), K = P0 A^T (A P0 A^T + R)^-1,
+//    P+ = P0 - K (A P0 A^T + R) K^T. Damped by Levenberg-Marquardt (Nielsen 1999, IMM-REP-1999-05):
+//    the step d solves (A^T A + P0^-1 + lambda P0^-1) d = -grad Phi_lin; a candidate whose Phi is
+//    not below Phi(eta_c) (or whose centre run fails) is rejected and lambda raised; no acceptable
+//    step after max_rejections tries ends the run (kDiverged). P+ at the last linearisation is the
+//    Gauss-Newton Laplace covariance (P0^-1 + J^T R^-1 J)^-1 as sample_scale -> 0.
 //  - kOneShot: one update from the prior, z_ref = z_bar (the paper's method).
 //  - kIterateKeepSpread: re-centre at eta+ and sample again with the PRIOR covariance P0; z_ref =
-//    h(eta_c), the model at the centre (a Gauss-Newton-like step damped by P0, whose fixed point
-//    fits the data; with z_bar it would stop where the sigma-point mean fits, a biased point).
-//    The data are used once per step, not accumulated: the reported covariance is the last P+.
-//  - kIterateInflate: re-centre at eta+ and sample with inflation * P+ (the over-confident
-//    iterated UT when inflation = 1); z_ref as above.
-// In the iterate modes a step that raises the data misfit at the new centre is halved back towards
-// the previous centre (up to 4 times; UtAction::kBacktrack records each).
-// Stop when max_j |eta+_j - eta_c,j| / sigma0_j < tolerance (sigma0 = prior std in eta), or after
+//    h(eta_c). No prior term: its fixed point fits the data (a maximum-likelihood point) and its P+
+//    is not a posterior. Kept for comparison.
+//  - kIterateInflate: re-centre at eta+ and sample with inflation * P+ (re-uses the data at every
+//    iteration: the stds collapse). Kept for comparison.
+// In the keep-spread / inflate modes a step that raises the data misfit at the new centre is
+// halved back towards the previous centre (up to 4 times); if it still raises it the run ends
+// (kDiverged): a worse centre is never accepted.
+// Stop when max_j |d_j| / sigma0_j < tolerance (sigma0 = prior std in eta), or after
 // max_iterations.
+//
+// Bounds: every parameter's transform maps R onto its bounds (Prior::validate refuses a bounded
+// parameter with a wider transform), so no sigma point and no estimate leaves them.
+//
+// Outcomes (UtTermination; ok() only for kConverged and kCompleted): after the run, in this order,
+// a non-finite estimate or fit -> kNonFinite; an estimate within bound_margin of a bound ->
+// kAtBound; a fit worse than the prior's -> kWorseThanPrior; a one-shot update whose normalised
+// innovation squared exceeds the chi-square quantile chi2_m(1 - nis_alpha) -> kOneShotNotTrusted.
+//
+// Global start (UtOptions::global_start): a Sobol' screen (estimation/sensitivity/sobol_sequence.h)
+// of `samples` points of the box eta0 +- width sigma0, Phi evaluated at each (and at the prior
+// mean), then a local run from each of the best `keep`; the summary is the local run with the
+// lowest final Phi, with every start listed in UtSummary::starts.
 //
 // Failure policy (docs/estimation.md s.8), every action recorded in Summary::actions:
 //  - kAbort: the first iteration with a failed member ends the run (kAbortedFailures) with the
@@ -29,10 +56,11 @@
 //    shrink_factor (P by its square), up to max_retries times, then abort as above. The shrunk
 //    ensemble measures the statistical linearisation over a smaller region; P_tz and P_zz are
 //    divided by the squared factor so the prior covariance is unchanged (exact for a linear h).
+//  In kMap a failed candidate centre is a rejected step (damp and retry), never an abort; only a
+//  failed starting point aborts.
 //  No drop-member-and-reweight: a rule with one point removed no longer satisfies U w = 0 and
 //  U W U^T = I (p points cannot have zero mean and identity covariance in p dimensions; dropping
 //  one of a +-pair loses that direction), so no reweighting gives a valid UT.
-// A failed centre run (the fit) only matters in the iterate modes, where it aborts the run.
 //
 // MPI: every rank calls run() with the same inputs; the Ensemble gathers results everywhere, so
 // every rank holds the same Summary (only rank 0 should write it). With several ranks per node
@@ -50,16 +78,32 @@
 #include <Eigen/Core>
 
 #include <functional>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
 
 namespace sigmaheart::estimation {
 
+// How a run ended; only kCompleted and kConverged are a success (UtSummary::ok()).
+enum class UtTermination {
+  kCompleted,          // one-shot update done (and trusted, and not worse than the prior)
+  kConverged,          // step < tolerance
+  kMaxIterations,      // stopped at the iteration limit
+  kAbortedFailures,    // the failure policy gave up (or the starting point failed)
+  kNumericalFailure,   // singular P_zz + R or non-finite update
+  kDiverged,           // no step lowers the objective (kMap: after max_rejections dampings)
+  kNonFinite,          // NaN / infinite estimate or misfit at the estimate
+  kWorseThanPrior,     // the estimate's data misfit is above the prior mean's
+  kAtBound,            // the estimate is stuck at a parameter bound
+  kOneShotNotTrusted,  // one-shot NIS far outside its chi-square band
+};
+const char* to_string(UtTermination termination);
 
-enum class UtMode { kOneShot, kIterateKeepSpread, kIterateInflate };
+enum class UtMode { kOneShot, kIterateKeepSpread, kIterateInflate, kMap };
 const char* to_string(UtMode mode);
-std::optional<UtMode> parse_ut_mode(const std::string& text);  // "one-shot", "iterate-keep-spread", "iterate-inflate"
+// "one-shot", "iterate-keep-spread", "iterate-inflate", "map"
+std::optional<UtMode> parse_ut_mode(const std::string& text);
 
 enum class UtFailurePolicy { kAbort, kShrinkAndRetry };
 const char* to_string(UtFailurePolicy policy);
@@ -70,6 +114,13 @@ enum class UtInnovation {
   kAuto,       // kSigmaMean for kOneShot, kCenter for the iterate modes
   kSigmaMean,  // y - z_bar
   kCenter,     // y - h(T(eta_c)), needs the centre run
+};
+
+// A space-filling start for priors far from the data (see the file comment).
+struct UtGlobalStart {
+  int samples = 0;     // Sobol' points screened; 0: no global start
+  int keep = 1;        // local runs, from the best screened points
+  double width = 3.0;  // half-width of the screened box in prior stds (eta), > 0
 };
 const char* to_string(UtInnovation innovation);
 
@@ -85,6 +136,13 @@ struct UtOptions {
   UtMode mode = UtMode::kOneShot;
   int max_iterations = 1;                    // iterate modes; kOneShot always runs 1
   double tolerance = 1e-4;                   // on max |d eta_j| / sigma0_j
+  // kMap: rejected (damped) candidates allowed in one iteration before the run ends kDiverged.
+  int max_rejections = 8;
+  // An estimate closer to a bound than bound_margin x (the prior's distance to it) is kAtBound.
+  double bound_margin = 1e-3;
+  // kOneShot: the update is not trusted when its NIS exceeds the chi2_m quantile of 1 - nis_alpha.
+  double nis_alpha = 1e-3;
+  UtGlobalStart global_start;
   double inflation = 1.0;                    // kIterateInflate: P_next = inflation * P+ (>= 1)
   UtInnovation innovation = UtInnovation::kAuto;
   // Spread of the sigma points relative to the covariance being sampled, in (0, 1]. P_tz and P_zz
@@ -118,7 +176,9 @@ struct UtFit {
 
 struct UtAction {
   // kBacktrack: an iterate-mode step raised the data misfit at the new centre and was halved.
-  enum class Kind { kShrinkAndRetry, kAbort, kBacktrack };
+  // kReject: a kMap candidate raised Phi (misfit) or its centre run failed (failed_members {-1});
+  // the damping lambda was raised to spread_factor.
+  enum class Kind { kShrinkAndRetry, kAbort, kBacktrack, kReject };
   Kind kind = Kind::kShrinkAndRetry;
   int iteration = 0;
   int attempt = 0;             // the attempt that failed
@@ -157,16 +217,22 @@ struct UtIteration {
   Eigen::VectorXd eta_mean;         // eta+
   Eigen::MatrixXd P;                // P+
   double step = 0.0;                // max |eta+_j - eta_c,j| / sigma0_j
+  double objective = 0.0;           // Phi at eta_center (kMap; data misfit in the other modes)
+  double lambda = 0.0;              // kMap: damping of the accepted step
+  int rejected = 0;                 // kMap: candidates rejected in this iteration
 };
 
-enum class UtTermination {
-  kCompleted,         // one-shot update done
-  kConverged,         // step < tolerance
-  kMaxIterations,
-  kAbortedFailures,   // the failure policy gave up
-  kNumericalFailure,  // singular P_zz + R or non-finite update
+// One start of a global start: where it began, the screen's Phi there and how its run ended.
+struct UtStart {
+  Eigen::VectorXd theta_start;      // SI
+  double screen_objective = 0.0;    // Phi at the start
+  double objective = 0.0;           // Phi at the run's estimate
+  UtTermination termination{};
+  int iterations = 0;
+  int simulations = 0;
+  Eigen::VectorXd theta;            // the run's estimate, SI
 };
-const char* to_string(UtTermination termination);
+
 
 struct UtSummary {
   UtTermination termination = UtTermination::kCompleted;
@@ -203,8 +269,15 @@ struct UtSummary {
   std::vector<UtMemberFailure> failed;
   int simulations = 0;                  // forward runs, including retries and fits
   int failures = 0;                     // failed forward runs
+  int rejected_steps = 0;               // kMap candidates rejected (raised Phi or failed)
+  int retries = 0;                      // shrink-and-retry re-samplings
+  // Phi (kMap objective: data misfit + prior term) at the prior mean and at the estimate.
+  double objective_prior = std::numeric_limits<double>::quiet_NaN();
+  double objective = std::numeric_limits<double>::quiet_NaN();
+  double nis_threshold = std::numeric_limits<double>::quiet_NaN();  // kOneShot: chi2 quantile
+  std::vector<UtStart> starts;          // global start: every start (empty without one)
 
-  bool ok() const;  // kCompleted, kConverged or kMaxIterations
+  bool ok() const;  // kCompleted or kConverged
   // One line, e.g. "UT calibration (one-shot, simplex, 3 params, 5 obs): completed after 1
   // iteration, 6 runs, 0 failed, 0 policy actions, misfit 12.3 -> 0.41".
   std::string brief_report() const;
@@ -228,6 +301,10 @@ class UtCalibration {
   UtSummary run();
 
  private:
+  struct Start;  // a local run's starting point and what is known there
+  UtSummary run_local(const Start& start);
+  UtSummary run_global();
+
   const ForwardModel& model_;
   Prior prior_;
   observers::ObservationSet observations_;

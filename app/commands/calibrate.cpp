@@ -28,9 +28,13 @@ std::function<void(const estimation::UtProgress&)> ut_progress(ProgressLine& pro
       if (stage->first >= 0) progress.finish();
       *stage = {p.iteration, p.attempt};
       // A batch of one run is a centre run (a backtracking step, or the fit at the estimate).
-      std::string what = "iteration " + std::to_string(p.iteration + 1) +
-                         (p.total == 1 ? std::string(" (centre run)") : std::string());
-      if (p.attempt > 0) what += " (retry " + std::to_string(p.attempt) + ", smaller spread)";
+      std::string what = p.iteration < 0 ? std::string("global start screen")
+                         : "iteration " + std::to_string(p.iteration + 1) +
+                               (p.total == 1 ? std::string(" (centre run)") : std::string());
+      if (p.attempt > 0) {
+        what += p.total == 1 ? " (damped candidate " + std::to_string(p.attempt) + ")"
+                             : " (retry " + std::to_string(p.attempt) + ", smaller spread)";
+      }
       progress.start(what, p.total);
     }
     progress.update(p.done);
@@ -87,8 +91,10 @@ int run_calibrate(const StudyOptions& o, CommandContext& ctx) {
                    [&](const std::filesystem::path& p) { io::write_calibration_json(p, config.name, results); });
   }
   if (!summary.ok()) {
-    return stopped_early(ctx, "calibration ended early (" + std::string(estimation::to_string(summary.termination)) +
-                                  "): " + summary.message + "; what was done is in " + output.string());
+    // Not a success (docs/estimation.md s.9): say what happened, exit 1; the results are written.
+    return stopped_early(ctx, "calibration " + std::string(estimation::to_string(summary.termination)) +
+                                  ": " + summary.message + "; the results (status included) are in " +
+                                  output.string());
   }
   return kExitOk;
 }

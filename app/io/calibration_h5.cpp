@@ -109,6 +109,29 @@ void write_calibration_h5(const std::filesystem::path& path, const CalibrationRe
     h5.set_attribute(g, "spread_factor", it.spread_factor);
     h5.set_attribute(g, "step", it.step);
     h5.set_attribute(g, "nis", it.nis);
+    h5.set_attribute(g, "objective", it.objective);
+    h5.set_attribute(g, "lambda", it.lambda);
+    h5.set_attribute(g, "rejected", it.rejected);
+  }
+  if (!summary.starts.empty()) {
+    const auto n = static_cast<Eigen::Index>(summary.starts.size());
+    const auto p = static_cast<Eigen::Index>(names.size());
+    Eigen::MatrixXd start(n, p), estimate(n, p);
+    Eigen::VectorXd screen(n), final_objective(n);
+    std::vector<std::string> status;
+    for (Eigen::Index k = 0; k < n; ++k) {
+      const auto& st = summary.starts[static_cast<size_t>(k)];
+      start.row(k) = st.theta_start.transpose();
+      estimate.row(k) = st.theta.transpose();
+      screen(k) = st.screen_objective;
+      final_objective(k) = st.objective;
+      status.emplace_back(estimation::to_string(st.termination));
+    }
+    h5.write_matrix("/global_start/theta_start", start, per, {}, names);
+    h5.write_matrix("/global_start/theta", estimate, per, {}, names);
+    h5.write_vector("/global_start/screen_objective", screen, "1");
+    h5.write_vector("/global_start/objective", final_objective, "1");
+    h5.write_strings("/global_start/status", status);
   }
   std::vector<std::string> actions;
   for (const auto& a : summary.actions) actions.push_back(a.describe());
@@ -130,6 +153,12 @@ void write_calibration_h5(const std::filesystem::path& path, const CalibrationRe
 
   h5.create_group("/summary");
   h5.set_attribute("/summary", "termination", estimation::to_string(summary.termination));
+  h5.set_attribute("/summary", "status", estimation::to_string(summary.termination));
+  h5.set_attribute("/summary", "ok", summary.ok() ? 1 : 0);
+  h5.set_attribute("/summary", "retries", summary.retries);
+  h5.set_attribute("/summary", "rejected_steps", summary.rejected_steps);
+  h5.set_attribute("/summary", "objective_prior", summary.objective_prior);
+  h5.set_attribute("/summary", "objective", summary.objective);
   h5.set_attribute("/summary", "message", summary.message);
   h5.set_attribute("/summary", "report", summary.brief_report());
   h5.set_attribute("/summary", "mode", estimation::to_string(summary.mode));

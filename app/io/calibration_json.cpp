@@ -49,12 +49,32 @@ void write_calibration_json(const std::filesystem::path& path, const std::string
   nlohmann::ordered_json j;
   j["kind"] = "calibrate";
   j["name"] = name;
+  j["status"] = estimation::to_string(summary.termination);
+  j["ok"] = summary.ok();
   j["termination"] = estimation::to_string(summary.termination);
   j["message"] = summary.message;
   j["mode"] = estimation::to_string(summary.mode);
   j["iterations"] = summary.iterations.size();
   j["simulations"] = summary.simulations;
   j["failures"] = summary.failures;
+  j["retries"] = summary.retries;
+  j["rejected_steps"] = summary.rejected_steps;
+  j["failure_policy"] = estimation::to_string(results.failure_policy);
+  j["objective_prior"] = summary.objective_prior;
+  j["objective"] = summary.objective;
+  for (const auto& st : summary.starts) {
+    nlohmann::ordered_json s;
+    for (size_t k = 0; k < summary.names.size(); ++k) {
+      s["start"][summary.names[k]] = st.theta_start(static_cast<Eigen::Index>(k));
+      s["estimate"][summary.names[k]] = st.theta(static_cast<Eigen::Index>(k));
+    }
+    s["screen_objective"] = st.screen_objective;
+    s["objective"] = st.objective;
+    s["status"] = estimation::to_string(st.termination);
+    s["iterations"] = st.iterations;
+    s["simulations"] = st.simulations;
+    j["starts"].push_back(s);
+  }
   for (size_t k = 0; k < summary.names.size(); ++k) {
     const auto i = static_cast<Eigen::Index>(k);
     j["parameters"][summary.names[k]] = {{"value", summary.theta_of_eta_mean(i)},
@@ -89,7 +109,9 @@ std::string calibration_report(const CalibrationResults& results) {
   const auto& err_after = summary.metrics_after.relative_error_percent;
 
   std::ostringstream t;
-  t << summary.brief_report() << "\n\n";
+  t << summary.brief_report() << "\n"
+    << "status: " << estimation::to_string(summary.termination) << (summary.ok() ? "" : " (not a success)")
+    << " -- " << summary.message << "\n\n";
   t << std::left << std::setw(14) << "parameter" << std::right << std::setw(12) << "prior"
     << std::setw(14) << "estimate" << std::setw(12) << "+- std" << "  unit\n";
   for (size_t k = 0; k < summary.names.size(); ++k) {
@@ -118,6 +140,12 @@ std::string calibration_report(const CalibrationResults& results) {
     << format_number(summary.metrics_before.rms_normalised_residual, 3) << " (prior) -> "
     << format_number(summary.metrics_after.rms_normalised_residual, 3)
     << " (calibrated); 1 = at the noise level\n";
+  for (size_t k = 0; k < summary.starts.size(); ++k) {
+    const auto& st = summary.starts[k];
+    t << "start " << k + 1 << ": objective " << format_number(st.screen_objective, 4) << " -> "
+      << format_number(st.objective, 4) << " (" << estimation::to_string(st.termination) << ", "
+      << st.iterations << " iterations)\n";
+  }
   return t.str();
 }
 

@@ -30,12 +30,14 @@ std::filesystem::path make_observations(const std::filesystem::path& dir) {
   return csv;
 }
 
-std::string config(const std::string& estimate, const std::string& observations =
-                       "  file: obs.csv\n  curves: [V_lv, P_lv]\n  noise: {V_lv: 2 mL, P_lv: 1.5 mmHg}\n") {
-  // The prior is the healthy preset, the model of the observations but for the two estimates.
+const std::string kObservations =
+    "  file: obs.csv\n  curves: [V_lv, P_lv]\n  noise: {V_lv: 2 mL, P_lv: 1.5 mmHg}\n";
+
+std::string config(const std::string& estimate, const std::string& observations = kObservations,
+                   const std::string& calibration = "{mode: map, max_iterations: 15, tolerance: 1.0e-2}") {
+  // The prior is the healthy preset, the model of the observations but for the estimates.
   return "name: twin\nsimulator:\n  {model: lumped-sphere, preset: healthy}\nobservations:\n" + observations +
-         "estimate:\n" + estimate +
-         "calibration: {mode: iterate-keep-spread, max_iterations: 15, tolerance: 1.0e-2}\n";
+         "estimate:\n" + estimate + "calibration: " + calibration + "\n";
 }
 
 TEST(CalibrateCommand, RecoversAHiddenTruthFromSynthesizedCurves) {
@@ -55,9 +57,70 @@ TEST(CalibrateCommand, RecoversAHiddenTruthFromSynthesizedCurves) {
   EXPECT_LT(j["rms_normalised_residual"].get<double>(), 1.3);  // a fit at the noise level
   EXPECT_GT(j["rms_normalised_residual_prior"].get<double>(), 2.0);
   EXPECT_EQ(j["failures"].get<int>(), 0);
+  EXPECT_EQ(j["status"], "converged");
+  EXPECT_EQ(j["mode"], "map");
   EXPECT_TRUE(std::filesystem::exists(dir / "r.h5"));
   EXPECT_FALSE(std::filesystem::exists(dir / "r.h5.tmp"));
   EXPECT_NE(r.out.find("RMS residual in noise standard deviations"), std::string::npos);
+}
+
+TEST(CalibrateCommand, AGlobalStartFromAFarPriorListsEveryStartAndKeepsTheBestObjective) {
+  const auto dir = scratch_dir();
+  make_observations(dir);
+  // Prior a third below the truth of sigma0 (5.3e4 Pa); `log` is given as logit on the model's
+  // bounds [0, 1e7] Pa, so no member can leave them.
+  const auto cfg = write_file(
+      dir / "cal.yaml",
+      config("  sigma0: {prior: 3.5e4, spread: 30 %}\n  P_at0: {spread: 20 %}\n", kObservations,
+             "{max_iterations: 20, tolerance: 1.0e-2, global_start: {samples: 8, keep: 2}}"));
+  const CliRun r = cli({"--log-level", "off", "calibrate", cfg.string(), "-o", (dir / "r.h5").string(),
+                        "--summary", (dir / "r.json").string(), "--threads", "2"});
+  ASSERT_EQ(r.code, kExitOk) << r.err;
+  const auto j = nlohmann::json::parse(read_file(dir / "r.json"));
+  ASSERT_EQ(j["starts"].size(), 2u);
+  double best = j["objective"].get<double>();
+  for (const auto& st : j["starts"]) EXPECT_GE(st["objective"].get<double>(), best);
+  EXPECT_NEAR(j["parameters"]["sigma0"]["value"].get<double>(), 5.3e4, 0.05 * 5.3e4);
+  EXPECT_NE(read_file(dir / "r.h5").find("logit"), std::string::npos);  // /estimate/transform
+}
+
+// A calibration that is not a success: exit 1, the status in words on stderr, in the JSON summary
+// and in the HDF5 results, which are still written.
+struct FailedCase {
+  std::string estimate;
+  std::string calibration;
+  std::string status;  // UtTermination in words
+};
+
+TEST(CalibrateCommand, EveryOutcomeButConvergedExitsOneAndStillWritesItsStatus) {
+  const auto dir = scratch_dir();
+  make_observations(dir);
+  const std::vector<FailedCase> cases = {
+      {"  sigma0: {spread: 20 %}\n  P_at0: {spread: 20 %}\n", "{max_iterations: 1}",
+       "stopped at the iteration limit"},
+      // The truth (5.3e4 Pa) lies above the bounds; a vague prior lets the estimate reach them.
+      {"  sigma0: {prior: 3.0e4, spread: 5 eta, transform: logit, bounds: [1.0e4, 5.0e4]}\n",
+       "{max_iterations: 40, tolerance: 1.0e-3}", "stuck at a bound"},
+      // A prior far from the data with a small spread: one linear update is not to be trusted.
+      {"  sigma0: {prior: 2.5e4, spread: 5 %}\n", "{mode: one-shot}", "one-shot update not trusted"},
+      // APD members beyond the heart period (0.85 s) fail; the abort policy gives up.
+      {"  APD: {prior: 0.8, spread: 10 %}\n", "{failure_policy: abort}", "aborted (failed runs)"},
+  };
+  for (const auto& c : cases) {
+    std::filesystem::remove(dir / "r.h5");
+    std::filesystem::remove(dir / "r.json");
+    const auto cfg = write_file(dir / "cal.yaml", config(c.estimate, kObservations, c.calibration));
+    const CliRun r = cli({"--log-level", "off", "calibrate", cfg.string(), "-o", (dir / "r.h5").string(),
+                          "--summary", (dir / "r.json").string(), "--threads", "2"});
+    EXPECT_EQ(r.code, kExitRuntimeFailure) << c.status << "\n" << r.err;
+    EXPECT_NE(r.err.find(c.status), std::string::npos) << r.err;
+    ASSERT_TRUE(std::filesystem::exists(dir / "r.json")) << c.status;
+    const auto j = nlohmann::json::parse(read_file(dir / "r.json"));
+    EXPECT_EQ(j["status"], c.status) << j["message"];
+    EXPECT_FALSE(j["ok"].get<bool>());
+    ASSERT_TRUE(std::filesystem::exists(dir / "r.h5")) << c.status;
+    EXPECT_NE(read_file(dir / "r.h5").find(c.status), std::string::npos);  // /summary@status
+  }
 }
 
 struct BadCase {

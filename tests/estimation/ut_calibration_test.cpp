@@ -7,6 +7,7 @@
 #include <Eigen/Dense>
 
 #include <cmath>
+#include <cstdio>
 #include <functional>
 #include <memory>
 #include <stdexcept>
@@ -17,6 +18,7 @@ namespace {
 
 using sigmaheart::testing::FunctionModel;
 using sigmaheart::testing::indexed;
+using sigmaheart::testing::Map;
 
 observers::ObservationSet observations(const Eigen::VectorXd& y, const Eigen::MatrixXd& R) {
   observers::ObservationSet obs;
@@ -373,6 +375,310 @@ TEST(UtCalibration, ValidateNamesTheInconsistency) {
   EXPECT_THROW(
       UtCalibration(fm, identity_parameters(lp.m0, lp.s0), observations(lp.y, lp.R), opt).run(),
       std::invalid_argument);
+}
+
+
+// ---- mode map: damped Gauss-Newton on statistically linearised models to the MAP point ----
+
+UtOptions map_options(SigmaOptions sigma = {}) {
+  UtOptions o = serial_options(sigma);
+  o.mode = UtMode::kMap;
+  o.max_iterations = 100;
+  o.tolerance = 1e-10;
+  return o;
+}
+
+// The MAP point and its Gauss-Newton Laplace covariance (P0^-1 + J^T R^-1 J)^-1 of identity-
+// transform problems, found independently of the UT: Newton on the exact objective
+// 0.5 |y - h|^2_R^-1 + 0.5 |t - m0|^2_P0^-1 with the analytic Jacobian J and a Hessian from
+// central differences of the exact gradient (only the rate depends on it), from `start`.
+struct Exact {
+  Eigen::VectorXd map;
+  Eigen::MatrixXd laplace;
+};
+using Jacobian = std::function<Eigen::MatrixXd(const Eigen::VectorXd&)>;
+Exact newton_map(const Map& h, const Jacobian& J, int m, const Eigen::VectorXd& m0,
+                 const Eigen::VectorXd& s0, const Eigen::VectorXd& y, const Eigen::MatrixXd& R,
+                 Eigen::VectorXd start) {
+  const Eigen::MatrixXd Rinv = R.inverse();
+  const Eigen::MatrixXd P0inv = s0.array().square().inverse().matrix().asDiagonal();
+  auto gradient = [&](const Eigen::VectorXd& t) {
+    Eigen::VectorXd z(m);
+    h(t, z);
+    return Eigen::VectorXd(-J(t).transpose() * Rinv * (y - z) + P0inv * (t - m0));
+  };
+  Eigen::VectorXd t = std::move(start);
+  for (int k = 0; k < 100 && gradient(t).norm() > 1e-14; ++k) {
+    const auto p = t.size();
+    Eigen::MatrixXd Hs(p, p);
+    for (Eigen::Index j = 0; j < p; ++j) {
+      const double e = 1e-6;
+      Eigen::VectorXd a = t, b = t;
+      a(j) += e;
+      b(j) -= e;
+      Hs.col(j) = (gradient(a) - gradient(b)) / (2 * e);
+    }
+    t -= (0.5 * (Hs + Hs.transpose())).ldlt().solve(gradient(t));
+  }
+  EXPECT_LT(gradient(t).norm(), 1e-12);
+  return {t, (P0inv + J(t).transpose() * Rinv * J(t)).inverse()};
+}
+
+TEST(UtCalibration, MapModeGivesTheExactLinearGaussianPosteriorInOneStep) {
+  const LinearProblem lp;
+  Eigen::VectorXd mean;
+  Eigen::MatrixXd P;
+  lp.exact(mean, P);
+  for (const SigmaRule rule : {SigmaRule::kSimplex, SigmaRule::kCanonical}) {
+    const UtSummary s = UtCalibration(lp.model(), identity_parameters(lp.m0, lp.s0),
+                                      observations(lp.y, lp.R), map_options({rule}))
+                            .run();
+    ASSERT_EQ(s.termination, UtTermination::kConverged) << s.message;
+    ASSERT_EQ(s.iterations.size(), 2u);  // the step, then a zero step
+    EXPECT_LT((s.iterations[0].eta_mean - mean).cwiseAbs().maxCoeff(), 1e-10) << to_string(rule);
+    EXPECT_LT((s.iterations[0].P - P).cwiseAbs().maxCoeff(), 1e-10 * P.cwiseAbs().maxCoeff());
+    EXPECT_LT((s.eta_mean - mean).cwiseAbs().maxCoeff(), 1e-10);
+    EXPECT_LT((s.eta_covariance - P).cwiseAbs().maxCoeff(), 1e-10 * P.cwiseAbs().maxCoeff());
+    EXPECT_EQ(s.iterations[0].lambda, 0.0);  // an undamped Gauss-Newton step
+    EXPECT_EQ(s.rejected_steps, 0);
+    EXPECT_TRUE(s.ok());
+  }
+}
+
+struct NonlinearCase {
+  const char* name;
+  int p, m;
+  Map h;
+  Jacobian J;
+  Eigen::VectorXd m0, s0, y, r;
+};
+
+std::vector<NonlinearCase> nonlinear_cases() {
+  std::vector<NonlinearCase> out;
+  {  // exponentials: y is not h of any point, so the MAP differs from the ML point
+    NonlinearCase c{"exponential", 2, 4,
+                    [](const Eigen::VectorXd& t, Eigen::Ref<Eigen::VectorXd> z) {
+                      z << std::exp(t(0)), std::exp(t(1)), std::exp(t(0) + 2.0 * t(1)), t(0) * t(1);
+                      return model::Status::Ok();
+                    },
+                    [](const Eigen::VectorXd& t) {
+                      Eigen::MatrixXd J(4, 2);
+                      const double e = std::exp(t(0) + 2.0 * t(1));
+                      J << std::exp(t(0)), 0.0, 0.0, std::exp(t(1)), e, 2.0 * e, t(1), t(0);
+                      return J;
+                    },
+                    Eigen::Vector2d(0.2, 0.3), Eigen::Vector2d(0.5, 0.5),
+                    Eigen::Vector4d(2.3, 0.62, 1.1, -0.35), Eigen::Vector4d(0.1, 0.05, 0.1, 0.05)};
+    out.push_back(c);
+  }
+  {  // a rational saturating response of three parameters
+    NonlinearCase c{"rational", 3, 5,
+                    [](const Eigen::VectorXd& t, Eigen::Ref<Eigen::VectorXd> z) {
+                      for (int i = 0; i < 5; ++i) {
+                        const double x = 0.5 * (i + 1);
+                        z(i) = t(0) * x / (t(1) * t(1) + x) + t(2) * x * x;
+                      }
+                      return model::Status::Ok();
+                    },
+                    [](const Eigen::VectorXd& t) {
+                      Eigen::MatrixXd J(5, 3);
+                      for (int i = 0; i < 5; ++i) {
+                        const double x = 0.5 * (i + 1), d = t(1) * t(1) + x;
+                        J.row(i) << x / d, -2.0 * t(0) * t(1) * x / (d * d), x * x;
+                      }
+                      return J;
+                    },
+                    Eigen::Vector3d(1.0, 1.0, 0.0), Eigen::Vector3d(0.5, 0.4, 0.1),
+                    (Eigen::VectorXd(5) << 0.55, 0.95, 1.35, 1.6, 1.95).finished(),
+                    Eigen::VectorXd::Constant(5, 0.05)};
+    out.push_back(c);
+  }
+  return out;
+}
+
+TEST(UtCalibration, MapModeLandsOnTheMapPointAndItsLaplaceCovariance) {
+  // sample_scale 1e-4 with the symmetric canonical rule: the statistical slope is the Jacobian
+  // to O(1e-8) (central differences), so the fixed point is the MAP and P+ the Laplace form.
+  for (const NonlinearCase& c : nonlinear_cases()) {
+    const Eigen::MatrixXd R = c.r.array().square().matrix().asDiagonal();
+    const Exact exact = newton_map(c.h, c.J, c.m, c.m0, c.s0, c.y, R, c.m0);
+    UtOptions opt = map_options({SigmaRule::kCanonical});
+    opt.sample_scale = 1e-4;
+    const UtSummary s =
+        UtCalibration(FunctionModel(c.p, c.m, c.h), identity_parameters(c.m0, c.s0), observations(c.y, R), opt)
+            .run();
+    ASSERT_EQ(s.termination, UtTermination::kConverged) << c.name << ": " << s.message;
+    const double mean_error = (s.eta_mean - exact.map).cwiseAbs().maxCoeff();
+    const double cov_error = (s.eta_covariance - exact.laplace).cwiseAbs().maxCoeff() /
+                             exact.laplace.cwiseAbs().maxCoeff();
+    EXPECT_LT(mean_error, 1e-4) << c.name;
+    EXPECT_LT(cov_error, 1e-4) << c.name;
+    RecordProperty(std::string(c.name) + "_map_error", std::to_string(mean_error));
+    RecordProperty(std::string(c.name) + "_covariance_relative_error", std::to_string(cov_error));
+    std::printf("%s: |eta - MAP| = %.3g, |P - Laplace| / |Laplace| = %.3g, %zu iterations, %d runs\n",
+                c.name, mean_error, cov_error, s.iterations.size(), s.simulations);
+    // Accepted centres never raise the objective.
+    for (size_t k = 1; k < s.iterations.size(); ++k) {
+      EXPECT_LE(s.iterations[k].objective, s.iterations[k - 1].objective) << c.name << " " << k;
+    }
+    EXPECT_LE(s.objective, s.objective_prior);
+  }
+}
+
+TEST(UtCalibration, MapModeRejectsAFailedCandidateAndDampsInsteadOfAborting) {
+  // z = exp(t): the undamped first step from 0 overshoots to ~2.2 where the model fails (t > 1.6);
+  // the damped step lands short of it and the run goes on to the MAP.
+  Map h = [](const Eigen::VectorXd& t, Eigen::Ref<Eigen::VectorXd> z) {
+    if (t(0) > 1.6) return model::Status::Error(model::StatusCode::kDiverged, "Newton failed");
+    z(0) = std::exp(t(0));
+    return model::Status::Ok();
+  };
+  const Eigen::VectorXd m0 = Eigen::VectorXd::Zero(1), s0 = Eigen::VectorXd::Constant(1, 2.0);
+  const Eigen::VectorXd y = Eigen::VectorXd::Constant(1, 4.0);
+  const Eigen::MatrixXd R = Eigen::MatrixXd::Constant(1, 1, 0.01);
+  UtOptions opt = map_options({SigmaRule::kCanonical});
+  opt.sample_scale = 1e-4;
+  const UtSummary s = UtCalibration(FunctionModel(1, 1, h), identity_parameters(m0, s0), observations(y, R), opt).run();
+  ASSERT_EQ(s.termination, UtTermination::kConverged) << s.message;
+  EXPECT_GE(s.rejected_steps, 1);
+  ASSERT_FALSE(s.actions.empty());
+  EXPECT_EQ(s.actions.front().kind, UtAction::Kind::kReject);
+  EXPECT_EQ(s.actions.front().failed_members, std::vector<int>{-1});
+  EXPECT_GE(s.failures, 1);
+  const Exact exact = newton_map(h, [](const Eigen::VectorXd& t) { return Eigen::MatrixXd::Constant(1, 1, std::exp(t(0))); },
+                                 1, m0, s0, y, R, Eigen::VectorXd::Constant(1, std::log(4.0)));
+  EXPECT_LT(std::abs(s.eta_mean(0) - exact.map(0)), 1e-4);
+}
+
+TEST(UtCalibration, MapModeEndsDivergedWhenNoDampedStepIsAcceptable) {
+  // Linear z = t with data at 3, but the model fails for t > 0.1: with one rejection allowed the
+  // halved step still fails, so no acceptable step exists and the run says so.
+  Map h = [](const Eigen::VectorXd& t, Eigen::Ref<Eigen::VectorXd> z) {
+    if (t(0) > 0.1) return model::Status::Error(model::StatusCode::kDiverged, "Newton failed");
+    z(0) = t(0);
+    return model::Status::Ok();
+  };
+  UtOptions opt = map_options({SigmaRule::kCanonical});
+  opt.sample_scale = 1e-3;
+  opt.max_rejections = 1;
+  const UtSummary s = UtCalibration(FunctionModel(1, 1, h), identity_parameters(Eigen::VectorXd::Zero(1), Eigen::VectorXd::Ones(1)),
+                                    observations(Eigen::VectorXd::Constant(1, 3.0), Eigen::MatrixXd::Constant(1, 1, 0.01)), opt)
+                          .run();
+  EXPECT_EQ(s.termination, UtTermination::kDiverged) << s.message;
+  EXPECT_FALSE(s.ok());
+  EXPECT_EQ(s.rejected_steps, 2);
+  EXPECT_EQ(s.eta_mean(0), 0.0);  // the prior mean, the last accepted centre
+  EXPECT_NE(s.message.find("no step lowers the MAP objective"), std::string::npos);
+}
+
+// theta in (0, 1) through a logit; z = theta observed at 1.5: the ML point is outside the bounds.
+Prior unit_interval_prior(double std_eta) {
+  Prior prior;
+  prior.parameters.push_back(PriorParameter::gaussian("t0", "1", 0.5, std_eta, SpreadKind::kEta,
+                                                      Transform{TransformKind::kLogit, 1.0, 0.0, 1.0}, 0.0, 1.0));
+  return prior;
+}
+
+TEST(UtCalibration, BoundsHoldForEveryMemberAndEstimateWhenTheMlPointIsOutside) {
+  FunctionModel fm(1, 1, [](const Eigen::VectorXd& t, Eigen::Ref<Eigen::VectorXd> z) {
+    if (!(t(0) > 0.0 && t(0) < 1.0)) return model::Status::Error(model::StatusCode::kOutOfBounds, "out of [0, 1]");
+    z(0) = t(0);
+    return model::Status::Ok();
+  });
+  const auto obs = observations(Eigen::VectorXd::Constant(1, 1.5), Eigen::MatrixXd::Constant(1, 1, 0.05 * 0.05));
+  for (const UtMode mode : {UtMode::kMap, UtMode::kOneShot, UtMode::kIterateKeepSpread, UtMode::kIterateInflate}) {
+    UtOptions opt = map_options();
+    opt.mode = mode;
+    opt.max_iterations = 30;
+    opt.tolerance = 1e-8;
+    const UtSummary s = UtCalibration(fm, unit_interval_prior(1.0), obs, opt).run();
+    EXPECT_EQ(s.failures, 0) << to_string(mode);
+    for (const auto& it : s.iterations) {
+      EXPECT_TRUE((it.theta_members.array() > 0.0).all() && (it.theta_members.array() < 1.0).all());
+    }
+    EXPECT_GT(s.theta_of_eta_mean(0), 0.5) << to_string(mode);
+    EXPECT_LT(s.theta_of_eta_mean(0), 1.0) << to_string(mode);
+  }
+  // The MAP in eta: (1.5 - s(e)) s(e)(1 - s(e)) / r^2 = e, s the logistic function (bisection).
+  auto dphi = [](double e) {
+    const double sg = 1.0 / (1.0 + std::exp(-e));
+    return -(1.5 - sg) * sg * (1.0 - sg) / 0.0025 + e;
+  };
+  double lo = 0.0, hi = 20.0;
+  for (int i = 0; i < 200; ++i) (dphi(0.5 * (lo + hi)) < 0 ? lo : hi) = 0.5 * (lo + hi);
+  UtOptions opt = map_options({SigmaRule::kCanonical});
+  opt.sample_scale = 1e-4;
+  const UtSummary s = UtCalibration(fm, unit_interval_prior(1.0), obs, opt).run();
+  ASSERT_EQ(s.termination, UtTermination::kConverged) << s.message;
+  EXPECT_NEAR(s.eta_mean(0), 0.5 * (lo + hi), 1e-4);
+  // A vague prior lets the estimate run into the bound: reported, not a success.
+  const UtSummary vague = UtCalibration(fm, unit_interval_prior(100.0), obs, opt).run();
+  EXPECT_EQ(vague.termination, UtTermination::kAtBound) << vague.message;
+  EXPECT_LT(vague.theta_of_eta_mean(0), 1.0);
+  EXPECT_NE(vague.message.find("upper bound"), std::string::npos) << vague.message;
+}
+
+TEST(UtCalibration, OutcomesSayWhenTheResultIsNotTrustworthy) {
+  const auto prior = identity_parameters(Eigen::VectorXd::Zero(1), Eigen::VectorXd::Constant(1, 0.3));
+  const Eigen::MatrixXd R = Eigen::MatrixXd::Constant(1, 1, 0.01);
+  // One-shot far from the data: NIS ~ 2.9^2 / (0.09 + 0.01) = 84 > chi2_1(0.999) = 10.8.
+  FunctionModel linear(1, 1, [](const Eigen::VectorXd& t, Eigen::Ref<Eigen::VectorXd> z) {
+    z(0) = t(0);
+    return model::Status::Ok();
+  });
+  const UtSummary far = UtCalibration(linear, prior, observations(Eigen::VectorXd::Constant(1, 2.9), R), serial_options()).run();
+  EXPECT_EQ(far.termination, UtTermination::kOneShotNotTrusted) << far.message;
+  EXPECT_NEAR(far.nis_threshold, 10.828, 1e-3);  // chi2_1 at 0.999 (tables: 10.828)
+  const UtSummary near = UtCalibration(linear, prior, observations(Eigen::VectorXd::Constant(1, 0.2), R), serial_options()).run();
+  EXPECT_EQ(near.termination, UtTermination::kCompleted) << near.message;
+  // The same update where the model returns NaN (with an ok status) at the estimate.
+  FunctionModel nan_above(1, 1, [](const Eigen::VectorXd& t, Eigen::Ref<Eigen::VectorXd> z) {
+    z(0) = t(0) > 1.0 ? std::nan("") : t(0);
+    return model::Status::Ok();
+  });
+  const UtSummary nan = UtCalibration(nan_above, prior, observations(Eigen::VectorXd::Constant(1, 2.9), R), serial_options()).run();
+  EXPECT_EQ(nan.termination, UtTermination::kNonFinite) << nan.message;
+  // z = exp(2 t): the sigma-point mean overshoots y, the update lands far below: worse than the prior.
+  FunctionModel steep(1, 1, [](const Eigen::VectorXd& t, Eigen::Ref<Eigen::VectorXd> z) {
+    z(0) = std::exp(2.0 * t(0));
+    return model::Status::Ok();
+  });
+  const UtSummary worse = UtCalibration(steep, identity_parameters(Eigen::VectorXd::Zero(1), Eigen::VectorXd::Ones(1)),
+                                        observations(Eigen::VectorXd::Constant(1, 1.2), R), serial_options()).run();
+  EXPECT_EQ(worse.termination, UtTermination::kWorseThanPrior) << worse.message;
+  EXPECT_GT(worse.fit_after->misfit(), worse.fit_before->misfit());
+  // The iteration limit is not a success.
+  UtOptions opt = map_options();
+  opt.max_iterations = 1;
+  const UtSummary limit = UtCalibration(steep, prior, observations(Eigen::VectorXd::Constant(1, 1.2), R), opt).run();
+  EXPECT_EQ(limit.termination, UtTermination::kMaxIterations) << limit.message;
+  EXPECT_FALSE(limit.ok());
+}
+
+TEST(UtCalibration, GlobalStartFindsTheDeeperOfTwoMinimaAFarPriorMisses) {
+  // z = (t^2, t), y = (4, 2.1): minima near t = -2 (where the prior mean -1.5 leads) and t = +2
+  // (deeper: the second observation prefers it).
+  Map h = [](const Eigen::VectorXd& t, Eigen::Ref<Eigen::VectorXd> z) {
+    z << t(0) * t(0), t(0);
+    return model::Status::Ok();
+  };
+  Jacobian J = [](const Eigen::VectorXd& t) { return Eigen::MatrixXd((Eigen::MatrixXd(2, 1) << 2.0 * t(0), 1.0).finished()); };
+  const Eigen::VectorXd m0 = Eigen::VectorXd::Constant(1, -1.5), s0 = Eigen::VectorXd::Constant(1, 5.0);
+  const Eigen::Vector2d y(4.0, 2.1);
+  const Eigen::MatrixXd R = Eigen::Vector2d(0.1 * 0.1, 3.0 * 3.0).asDiagonal();
+  UtOptions opt = map_options({SigmaRule::kCanonical});
+  opt.sample_scale = 1e-4;
+  const UtSummary local = UtCalibration(FunctionModel(1, 2, h), identity_parameters(m0, s0), observations(y, R), opt).run();
+  ASSERT_EQ(local.termination, UtTermination::kConverged) << local.message;
+  EXPECT_LT(local.eta_mean(0), 0.0);
+  opt.global_start = {16, 3, 1.0};
+  const UtSummary global = UtCalibration(FunctionModel(1, 2, h), identity_parameters(m0, s0), observations(y, R), opt).run();
+  ASSERT_EQ(global.termination, UtTermination::kConverged) << global.message;
+  ASSERT_EQ(global.starts.size(), 3u);
+  const Exact deep = newton_map(h, J, 2, m0, s0, y, R, Eigen::VectorXd::Constant(1, 2.0));
+  EXPECT_LT(std::abs(global.eta_mean(0) - deep.map(0)), 1e-4);
+  EXPECT_LT(global.objective, local.objective - 0.1);
+  for (const auto& st : global.starts) EXPECT_GE(st.objective, global.objective);
 }
 
 }  // namespace

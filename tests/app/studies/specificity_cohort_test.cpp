@@ -74,7 +74,7 @@ TEST(SpecificityCohort, OnlySigma0DiffersAndTheStudyNamesSigma0First) {
           "estimate:\n"
           "  sigma0: {prior: 4.5e4, spread: 30 %}\n"
           "  R_d: {spread: 20 %}\n"
-          "calibration: {mode: iterate-keep-spread, max_iterations: 8, tolerance: 1.0e-3}\n"
+          "calibration: {mode: map, max_iterations: 20, tolerance: 1.0e-3}\n"
           "specificity: {groups: [healthy, failing]}\n");
   std::ostringstream out, err;
   const int code = run_cli({"--log-level", "off", "specificity", config.string(), "-o",
