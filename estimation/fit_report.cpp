@@ -349,7 +349,9 @@ FitReport make_fit_report(const observers::ObservationSet& obs,
     report.discrepancies.push_back(d);
   }
 
-  if (posterior) {
+  if (posterior && !posterior->covariance.allFinite()) {
+    report.notes.push_back("the posterior covariance is not finite: no identifiability report");
+  } else if (posterior) {
     report.identifiability = identifiability(posterior->names, posterior->covariance,
                                              posterior->prior_std, options.uninformed_ratio,
                                              options.correlation_threshold);

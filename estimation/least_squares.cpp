@@ -18,7 +18,6 @@ namespace sigmaheart::estimation {
 
 namespace {
 
-constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr size_t kMaxFailureMessages = 10;
 
@@ -95,9 +94,9 @@ class MapProblem {
   // and perturbations in one ensemble. False when any of these runs failed.
   bool jacobian(const Eigen::VectorXd& eta, Eigen::VectorXd& z, Eigen::MatrixXd& J) {
     if (jacobian_eta_.size() == p_ && jacobian_eta_ == eta) {
-      z = center_z_;
+      z = jacobian_z_;
       J = jacobian_;
-      return center(eta, z);
+      return true;
     }
     if (failed_eta_.size() == p_ && failed_eta_ == eta) return false;
     const bool need_center = !(center_eta_.size() == p_ && center_eta_ == eta);
@@ -126,11 +125,16 @@ class MapProblem {
       dz.col(j) = central ? Eigen::VectorXd((zp - res.Z.row(first + per * j + 1).transpose()) / (2 * step_(j)))
                           : Eigen::VectorXd((zp - center_z_) / step_(j));
     }
-    jacobian_eta_ = eta;
-    jacobian_ = L_.triangularView<Eigen::Lower>().solve(dz);
+    J = L_.triangularView<Eigen::Lower>().solve(dz);
     z = center_z_;
-    J = jacobian_;
-    return J.allFinite();
+    if (!J.allFinite()) {
+      failed_eta_ = eta;
+      return false;
+    }
+    jacobian_eta_ = eta;
+    jacobian_z_ = z;
+    jacobian_ = J;
+    return true;
   }
 
   int simulations() const { return simulations_; }
@@ -148,7 +152,7 @@ class MapProblem {
   Eigen::VectorXd eta0_, step_;
   Eigen::VectorXd center_eta_, center_z_;
   model::Status center_status_;
-  Eigen::VectorXd jacobian_eta_, failed_eta_;
+  Eigen::VectorXd jacobian_eta_, jacobian_z_, failed_eta_;
   Eigen::MatrixXd jacobian_;
   int simulations_ = 0, failures_ = 0;
   std::string last_failure_;

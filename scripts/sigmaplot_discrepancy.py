@@ -98,7 +98,7 @@ def plot_curves(f, g, out_dir, stem) -> List[str]:
         fig.legend(handles, names, loc="upper right", ncol=len(names), fontsize=8)
     fig.suptitle(title_of(f, "fit report: residual by cycle phase"), y=1.02)
     fig.text(0.01, -0.02, text(g.attrs.get("summary", "")), ha="left", va="top", fontsize=8, wrap=True)
-    fig.text(0.99, -0.02, provenance_note(f), ha="right", va="top", fontsize=7, color="#777777")
+    fig.text(0.99, -0.07, provenance_note(f), ha="right", va="top", fontsize=7, color="#777777")
     fig.tight_layout()
     return [save(fig, out_dir, stem, "discrepancy")]
 
@@ -118,7 +118,8 @@ def plot_identifiability(f, g, out_dir, stem) -> List[str]:
     a.set_yticks(range(len(names)), names, fontsize=8)
     a.grid(False)
     for (r, c), v in np.ndenumerate(corr):
-        a.text(c, r, f"{v:.2f}", ha="center", va="center", fontsize=7)
+        a.text(c, r, f"{v:.2f}", ha="center", va="center", fontsize=7,
+               color="white" if abs(v) > 0.6 else "black")
     fig.colorbar(im, ax=a, label="posterior correlation [-]")
     b.bar(range(len(names)), ratio, color=["#d62728" if v > threshold else "#2ca02c" for v in ratio])
     b.axhline(threshold, color="#444444", ls="--", lw=1, label=f"not informed above {threshold:g}")

@@ -3,6 +3,7 @@
 #include "app/io/display.h"
 
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 namespace sigmaheart::app::io {
@@ -228,6 +229,92 @@ void write_fit_report_h5(Hdf5Writer& h5, const std::string& group, const FitRepo
     h5.set_attribute(ig, "uninformed_ratio", options.uninformed_ratio);
     h5.set_attribute(ig, "correlation_threshold", options.correlation_threshold);
   }
+}
+
+void write_least_squares_h5(Hdf5Writer& h5, const std::string& group,
+                            const estimation::LeastSquaresSummary& s,
+                            const std::vector<std::string>& units) {
+  const std::string g = group;
+  const std::string per = "per parameter, see " + g + "/units";
+  h5.create_group(g);
+  h5.set_attribute(g, "termination", estimation::to_string(s.termination));
+  h5.set_attribute(g, "message", s.message);
+  h5.set_attribute(g, "report", s.brief_report());
+  h5.set_attribute(g, "simulations", s.simulations);
+  h5.set_attribute(g, "failures", s.failures);
+  h5.set_attribute(g, "best_start", s.best_start);
+  h5.set_attribute(g, "polished", s.polished ? 1 : 0);
+  h5.set_attribute(g, "cost", s.cost);
+  h5.set_attribute(g, "prior_cost", s.prior_cost);
+  h5.write_strings(g + "/names", s.names);
+  h5.write_strings(g + "/units", units);
+  h5.write_vector(g + "/theta", s.theta, per);
+  h5.write_vector(g + "/theta_std", s.theta_std, per);
+  h5.write_vector(g + "/theta_prior", s.theta_prior, per);
+  h5.write_vector(g + "/eta", s.eta, "1");
+  h5.write_vector(g + "/eta_std", s.eta_std, "1");
+  h5.write_vector(g + "/eta_prior_mean", s.eta_prior_mean, "1");
+  h5.write_vector(g + "/eta_prior_std", s.eta_prior_std, "1");
+  h5.write_matrix(g + "/eta_covariance", s.eta_covariance, "1", s.names, s.names);
+  h5.write_matrix(g + "/jacobian", s.jacobian, "1", s.observation_names, s.names);
+  const auto nan = Eigen::VectorXd::Constant(static_cast<Eigen::Index>(s.observation_names.size()),
+                                             std::numeric_limits<double>::quiet_NaN());
+  h5.write_vector(g + "/fit/estimate", s.fit_estimate ? s.fit_estimate->z : Eigen::VectorXd(nan), "SI");
+  h5.write_vector(g + "/fit/prior", s.fit_prior ? s.fit_prior->z : Eigen::VectorXd(nan), "SI");
+  const auto n = static_cast<Eigen::Index>(s.iterations.size());
+  std::vector<std::int64_t> start, iteration, ok;
+  Eigen::VectorXd cost(n), gradient(n), step(n);
+  for (Eigen::Index k = 0; k < n; ++k) {
+    const auto& it = s.iterations[static_cast<size_t>(k)];
+    start.push_back(it.start);
+    iteration.push_back(it.iteration);
+    ok.push_back(it.step_is_successful ? 1 : 0);
+    cost(k) = it.cost;
+    gradient(k) = it.gradient_max_norm;
+    step(k) = it.step_norm;
+  }
+  h5.write_ints(g + "/iterations/start", start);
+  h5.write_ints(g + "/iterations/iteration", iteration);
+  h5.write_vector(g + "/iterations/cost", cost, "1");
+  h5.write_vector(g + "/iterations/gradient_max_norm", gradient, "1");
+  h5.write_vector(g + "/iterations/step_norm", step, "1");
+  h5.write_ints(g + "/iterations/successful", ok);
+  std::vector<std::int64_t> its;
+  std::vector<std::string> terms;
+  Eigen::VectorXd final_cost(static_cast<Eigen::Index>(s.starts.size()));
+  for (size_t k = 0; k < s.starts.size(); ++k) {
+    its.push_back(s.starts[k].iterations);
+    terms.push_back(s.starts[k].ceres_termination);
+    final_cost(static_cast<Eigen::Index>(k)) = s.starts[k].final_cost;
+  }
+  h5.write_vector(g + "/starts/final_cost", final_cost, "1");
+  h5.write_ints(g + "/starts/iterations", its);
+  h5.write_strings(g + "/starts/termination", terms);
+  h5.write_strings(g + "/failures", s.failure_messages);
+}
+
+void add_least_squares_json(nlohmann::ordered_json& parent,
+                            const estimation::LeastSquaresSummary& s,
+                            const std::vector<std::string>& units) {
+  nlohmann::ordered_json j;
+  j["termination"] = estimation::to_string(s.termination);
+  j["message"] = s.message;
+  nlohmann::ordered_json params = nlohmann::ordered_json::object();
+  for (size_t k = 0; k < s.names.size(); ++k) {
+    const auto i = static_cast<Eigen::Index>(k);
+    params[s.names[k]] = {{"value", s.theta(i)},
+                          {"std", s.theta_std(i)},
+                          {"prior", s.theta_prior(i)},
+                          {"unit", k < units.size() ? units[k] : std::string()}};
+  }
+  j["parameters"] = params;
+  j["simulations"] = s.simulations;
+  j["failures"] = s.failures;
+  j["cost"] = s.cost;
+  j["prior_cost"] = s.prior_cost;
+  j["rms_noise_std_before"] = s.metrics_prior.rms_normalised_residual;
+  j["rms_noise_std_after"] = s.metrics_estimate.rms_normalised_residual;
+  parent["map"] = j;
 }
 
 }  // namespace sigmaheart::app::io

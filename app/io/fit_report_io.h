@@ -14,10 +14,20 @@
 //             @rms_normalised, @dominant
 //   identifiability/{names, correlation [1], std_ratio [1], uninformed, correlated_a,
 //             correlated_b, correlated_rho [1]}, @uninformed_ratio, @correlation_threshold
+//
+// The MAP least-squares summary (estimation/least_squares.h) under its own group (e.g. "/map"):
+//   @termination, @message, @report, @simulations, @failures, @best_start, @polished, @cost,
+//   @prior_cost
+//   names, units, theta, theta_std, theta_prior [per parameter, see units], eta, eta_std,
+//   eta_prior_mean, eta_prior_std [1], eta_covariance [1], jacobian [1] (whitened, obs x params)
+//   fit/{estimate, prior} [SI, per observation], iterations/{start, iteration, cost,
+//   gradient_max_norm, step_norm, successful}, starts/{final_cost, iterations, termination},
+//   failures (strings)
 #pragma once
 
 #include "app/io/hdf5_writer.h"
 #include "estimation/fit_report.h"
+#include "estimation/least_squares.h"
 
 #include <nlohmann/json.hpp>
 
@@ -34,5 +44,15 @@ void add_fit_report_json(nlohmann::ordered_json& parent, const estimation::FitRe
 void write_fit_report_h5(Hdf5Writer& h5, const std::string& group,
                          const estimation::FitReport& report,
                          const estimation::FitReportOptions& options = {});
+
+// The layout above under `group`; units: the prior's SI units per parameter.
+void write_least_squares_h5(Hdf5Writer& h5, const std::string& group,
+                            const estimation::LeastSquaresSummary& summary,
+                            const std::vector<std::string>& units);
+// parent["map"] = {"termination", "message", "parameters": {name: {value, std, prior, unit}},
+// "simulations", "failures", "cost", "prior_cost", "rms_noise_std_before", "..._after"}.
+void add_least_squares_json(nlohmann::ordered_json& parent,
+                            const estimation::LeastSquaresSummary& summary,
+                            const std::vector<std::string>& units);
 
 }  // namespace sigmaheart::app::io

@@ -3,6 +3,7 @@
 
 #include "model/units.h"
 #include "test_support.h"
+#include "tests/support/function_model.h"
 
 #include <gtest/gtest.h>
 
@@ -99,6 +100,38 @@ TEST(FitReportIo, WritesAnHdf5GroupTheReaderReadsBack) {
   EXPECT_NEAR(r.read_vector("/fit_report/indices/observed")(1), 50.0, 1e-9);
   EXPECT_NEAR(r.read_matrix("/fit_report/identifiability/correlation")(0, 1), 0.99, 1e-12);
   EXPECT_EQ(r.read_strings("/fit_report/identifiability/correlated_a"), std::vector<std::string>{"a"});
+}
+
+// A one-parameter linear problem z = (t, 2t) with a N(0, 1) prior: the MAP and the layout.
+TEST(FitReportIo, WritesTheLeastSquaresSummary) {
+  const sigmaheart::testing::FunctionModel fm(1, 2, [](const Eigen::VectorXd& t, Eigen::Ref<Eigen::VectorXd> z) {
+    z << t(0), 2 * t(0);
+    return model::Status::Ok();
+  });
+  estimation::Prior prior;
+  prior.parameters.push_back(estimation::PriorParameter::gaussian("t0", "Pa", 0.0, 1.0, estimation::SpreadKind::kEta, {}));
+  estimation::LeastSquaresOptions o;
+  o.ensemble.backend = estimation::Backend::kSerial;
+  const auto s = estimation::solve_map(
+      fm, prior, sigmaheart::testing::observations_for(fm, Eigen::Vector2d(1.0, 2.0), Eigen::Matrix2d::Identity()), o);
+  ASSERT_TRUE(s.ok()) << s.message;
+  // Posterior precision 1 + 1 + 4 = 6, mean (1 + 4) / 6.
+  const auto path = scratch_dir() / "map.h5";
+  {
+    Hdf5Writer h5(path);
+    write_least_squares_h5(h5, "/map", s, prior.units());
+    h5.commit();
+  }
+  Hdf5Reader r(path);
+  EXPECT_EQ(r.string_attribute("/map", "termination"), "converged");
+  EXPECT_NEAR(r.read_vector("/map/theta")(0), 5.0 / 6.0, 1e-9);
+  EXPECT_NEAR(r.read_matrix("/map/eta_covariance")(0, 0), 1.0 / 6.0, 1e-9);
+  EXPECT_EQ(r.read_strings("/map/units"), std::vector<std::string>{"Pa"});
+  EXPECT_EQ(r.read_vector("/map/fit/estimate").size(), 2);
+  nlohmann::ordered_json j;
+  add_least_squares_json(j, s, prior.units());
+  EXPECT_NEAR(j.at("map").at("parameters").at("t0").at("value").get<double>(), 5.0 / 6.0, 1e-9);
+  EXPECT_EQ(j.at("map").at("termination"), "converged");
 }
 
 }  // namespace

@@ -15,17 +15,7 @@ namespace {
 
 using sigmaheart::testing::FunctionModel;
 using sigmaheart::testing::indexed;
-
-observers::ObservationSet observations(const Eigen::VectorXd& y, const Eigen::MatrixXd& R) {
-  observers::ObservationSet obs;
-  for (int i = 0; i < y.size(); ++i) {
-    obs.names.push_back(indexed("o", i));
-    obs.units.push_back("1");
-  }
-  obs.y = y;
-  obs.R = R;
-  return obs;
-}
+using sigmaheart::testing::observations_for;
 
 LeastSquaresOptions serial() {
   LeastSquaresOptions o;
@@ -72,7 +62,7 @@ TEST(LeastSquares, EqualsTheExactPosteriorOnALinearGaussianProblem) {
   for (FiniteDifference d : {FiniteDifference::kCentral, FiniteDifference::kForward}) {
     LeastSquaresOptions o = serial();
     o.difference = d;
-    const LeastSquaresSummary s = solve_map(fm, prior, observations(y, R), o);
+    const LeastSquaresSummary s = solve_map(fm, prior, observations_for(fm, y, R), o);
     ASSERT_EQ(s.termination, LsqTermination::kConverged) << s.message;
     EXPECT_LT((s.eta - mean).cwiseAbs().maxCoeff(), 1e-8) << to_string(d);
     EXPECT_LT((s.eta_covariance - P).cwiseAbs().maxCoeff(), 1e-8 * P.cwiseAbs().maxCoeff()) << to_string(d);
@@ -107,6 +97,9 @@ struct DecayProblem {
       z = th(0) * (-th(1) * t.array()).exp();
       return model::Status::Ok();
     });
+  }
+  observers::ObservationSet data(const FunctionModel& fm) const {
+    return observations_for(fm, y, s * s * Eigen::MatrixXd::Identity(y.size(), y.size()));
   }
   double k_of(double eta) const { return k_lo + (k_hi - k_lo) / (1 + std::exp(-eta)); }
   double cost(const Eigen::Vector2d& eta) const {
@@ -152,7 +145,7 @@ TEST(LeastSquares, FindsTheMapOfANonlinearProblemThroughLogAndLogitTransforms) {
   ASSERT_LT(dp.gradient(expected).cwiseAbs().maxCoeff(), 1e-9);
   const FunctionModel fm = dp.model();
   const LeastSquaresSummary s =
-      solve_map(fm, dp.prior(), observations(dp.y, dp.s * dp.s * Eigen::MatrixXd::Identity(6, 6)), serial());
+      solve_map(fm, dp.prior(), dp.data(fm), serial());
   ASSERT_EQ(s.termination, LsqTermination::kConverged) << s.message;
   EXPECT_LT((s.eta - expected).cwiseAbs().maxCoeff(), 1e-6);
   EXPECT_NEAR(s.theta(0), std::exp(expected(0)), 1e-6 * std::exp(expected(0)));
@@ -170,7 +163,7 @@ TEST(LeastSquares, ASobolScreenStartsFromTheBestPointsAndFindsTheSameMap) {
   o.starts = 2;
   o.seed = 7;
   const LeastSquaresSummary s =
-      solve_map(fm, dp.prior(), observations(dp.y, dp.s * dp.s * Eigen::MatrixXd::Identity(6, 6)), o);
+      solve_map(fm, dp.prior(), dp.data(fm), o);
   ASSERT_EQ(s.termination, LsqTermination::kConverged) << s.message;
   ASSERT_EQ(s.starts.size(), 3u);
   for (const auto& st : s.starts) EXPECT_NE(st.ceres_termination.find("CONVERGENCE"), std::string::npos);
@@ -184,7 +177,7 @@ TEST(LeastSquares, StaysInsideTheBoundsWhenTheDataPointOutside) {
   for (Eigen::Index i = 0; i < dp.t.size(); ++i) dp.y(i) = 2.0 * std::exp(-8.0 * dp.t(i));
   const FunctionModel fm = dp.model();
   const LeastSquaresSummary s =
-      solve_map(fm, dp.prior(), observations(dp.y, dp.s * dp.s * Eigen::MatrixXd::Identity(6, 6)), serial());
+      solve_map(fm, dp.prior(), dp.data(fm), serial());
   EXPECT_TRUE(s.theta.allFinite());
   EXPECT_GT(s.theta(1), 4.0);
   EXPECT_LT(s.theta(1), dp.k_hi);
@@ -206,7 +199,7 @@ TEST(LeastSquares, ReportsAnEstimateStuckAtABound) {
   LeastSquaresOptions o = serial();
   o.max_iterations = 200;
   const LeastSquaresSummary s =
-      solve_map(fm, prior, observations(Eigen::VectorXd::Constant(1, -1.0), Eigen::MatrixXd::Constant(1, 1, 1e-4)), o);
+      solve_map(fm, prior, observations_for(fm, Eigen::VectorXd::Constant(1, -1.0), Eigen::MatrixXd::Constant(1, 1, 1e-4)), o);
   EXPECT_EQ(s.termination, LsqTermination::kAtBound) << s.message;
   EXPECT_EQ(s.at_bound, std::vector<std::string>{"t0"});
   EXPECT_GT(s.theta(0), 0.0);
@@ -226,7 +219,7 @@ TEST(LeastSquares, AModelFailingInPartOfTheSpaceDoesNotCrash) {
   });
   // The data ask for t = (1, 3): beyond the failing edge.
   const Eigen::Vector3d y(4.0, -2.0, 3.0);
-  const LeastSquaresSummary s = solve_map(fm, prior, observations(y, 0.01 * Eigen::Matrix3d::Identity()), serial());
+  const LeastSquaresSummary s = solve_map(fm, prior, observations_for(fm, y, 0.01 * Eigen::Matrix3d::Identity()), serial());
   EXPECT_GT(s.failures, 0);
   EXPECT_FALSE(s.failure_messages.empty());
   EXPECT_NE(s.failure_messages[0].find("Newton diverged"), std::string::npos);
@@ -238,7 +231,7 @@ TEST(LeastSquares, AModelFailingInPartOfTheSpaceDoesNotCrash) {
   const FunctionModel always(2, 3, [](const Eigen::VectorXd&, Eigen::Ref<Eigen::VectorXd>) {
     return model::Status::Error(model::StatusCode::kNonFinite, "NaN in the state");
   });
-  const LeastSquaresSummary f = solve_map(always, prior, observations(y, 0.01 * Eigen::Matrix3d::Identity()), serial());
+  const LeastSquaresSummary f = solve_map(always, prior, observations_for(fm, y, 0.01 * Eigen::Matrix3d::Identity()), serial());
   EXPECT_EQ(f.termination, LsqTermination::kNoConvergence);
   EXPECT_NE(f.message.find("NaN in the state"), std::string::npos) << f.message;
   EXPECT_FALSE(f.ok());
@@ -254,7 +247,7 @@ TEST(LeastSquares, GivesTheSameNumbersWithOneAndTwoThreads) {
   one.starts = 1;
   LeastSquaresOptions two = one;
   two.ensemble.threads = 2;
-  const auto obs = observations(dp.y, dp.s * dp.s * Eigen::MatrixXd::Identity(6, 6));
+  const auto obs = dp.data(fm);
   const LeastSquaresSummary a = solve_map(fm, dp.prior(), obs, one);
   const LeastSquaresSummary b = solve_map(fm, dp.prior(), obs, two);
   EXPECT_EQ(a.eta, b.eta);
@@ -266,7 +259,7 @@ TEST(LeastSquares, GivesTheSameNumbersWithOneAndTwoThreads) {
 TEST(LeastSquares, RefusesInconsistentInput) {
   const DecayProblem dp;
   const FunctionModel fm = dp.model();
-  const auto obs = observations(dp.y, dp.s * dp.s * Eigen::MatrixXd::Identity(6, 6));
+  const auto obs = dp.data(fm);
   Prior one = dp.prior();
   one.parameters.pop_back();
   EXPECT_THROW(solve_map(fm, one, obs, serial()), std::invalid_argument);
