@@ -75,7 +75,8 @@ struct IndexComparison {
 // diagram: pressure rises with the valves closed before ejection, falls after it); without a
 // pressure curve, by what precedes it: contraction after filling, relaxation after ejection.
 // Limits: diastasis (slow filling below the threshold) counts as isovolumic, usually contraction;
-// a frame at a phase boundary goes to either neighbour.
+// a frame at a phase boundary goes to either neighbour, so at 30 frames per beat the isovolumic
+// contraction (~50 ms, 1-2 frames) is usually absorbed by filling and ejection.
 enum class CyclePhase { kFilling, kIsovolumicContraction, kEjection, kIsovolumicRelaxation };
 const char* to_string(CyclePhase phase);  // "filling", "isovolumic contraction", ...
 inline constexpr int kCyclePhases = 4;
