@@ -4,6 +4,7 @@
 #pragma once
 
 #include "estimation/forward_model.h"
+#include "observers/observer.h"
 
 #include <Eigen/Core>
 
@@ -51,5 +52,18 @@ class FunctionModel final : public estimation::ForwardModel {
   std::vector<model::Channel> outputs_;
   Map f_;
 };
+
+// Data for a model's outputs: names and units from outputs(), values y and noise covariance R.
+inline observers::ObservationSet observations_for(const estimation::ForwardModel& model,
+                                                  Eigen::VectorXd y, Eigen::MatrixXd R) {
+  observers::ObservationSet obs;
+  for (const auto& c : model.outputs()) {
+    obs.names.push_back(c.name);
+    obs.units.push_back(c.unit);
+  }
+  obs.y = std::move(y);
+  obs.R = std::move(R);
+  return obs;
+}
 
 }  // namespace sigmaheart::testing
