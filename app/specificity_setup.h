@@ -11,6 +11,9 @@
 //   specificity:
 //     groups: [healthy, failing]   # group a, group b; default: the two labels in order of appearance
 //     lda_shrinkage: 0.2           # leave-one-out LDA, pooled covariance shrunk to its diagonal
+//     adjust: holm                 # holm | benjamini-hochberg: p-values adjusted over the parameters
+//     alpha: 0.05                  # adjusted level below which a parameter is reported as different
+//     min_cases_per_group: 2       # fewer calibrated cases in a compared group: no statistics, exit 1
 //     parallel: auto               # cases | ensemble | auto
 //     threads: 0                   # 0: all cores
 //
@@ -47,6 +50,9 @@ enum class SpecificityParallel { kAuto, kCases, kEnsemble };
 struct SpecificitySection {
   std::string group_a, group_b;
   double lda_shrinkage = 0.2;
+  estimation::specificity::PAdjust adjust = estimation::specificity::PAdjust::kHolm;
+  double alpha = 0.05;
+  int min_cases_per_group = 2;
   SpecificityParallel parallel = SpecificityParallel::kAuto;
   int threads = 0;
 };
