@@ -192,6 +192,8 @@ void write_specificity_h5(Hdf5Writer& h5, const SpecificitySetup& setup,
   h5.create_group("/summary");
   h5.set_attribute("/summary", "wall_seconds", run.wall_seconds);
   h5.set_attribute("/summary", "parallel", parallel_name(run));
+  h5.set_attribute("/summary", "status", sp::to_string(summary.status));
+  h5.set_attribute("/summary", "message", summary.message);
 }
 
 nlohmann::ordered_json specificity_json(const std::string& name, const SpecificitySetup& setup,

@@ -12,7 +12,7 @@
 //     none), /statistics/ranking (names, strongest evidence first); attributes group_a, group_b,
 //     adjust, alpha
 //   /classifier (attributes valid, accuracy, correct, total, shrinkage, message), /classifier/predicted
-//   /failed/{names, messages}, /summary (attributes wall_seconds, parallel)
+//   /failed/{names, messages}, /summary (attributes wall_seconds, parallel, status, message)
 #pragma once
 
 #include "app/io/hdf5_writer.h"
