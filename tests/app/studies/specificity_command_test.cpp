@@ -149,6 +149,7 @@ TEST(SpecificityCommand, BadCohortsGiveLocatedErrorsAndExitTwo) {
       {"calibration:", "specificity: {adjust: bonferroni}\ncalibration:", "benjamini-hochberg"},
       {"calibration:", "specificity: {alpha: 1.5}\ncalibration:", "expected a level in (0, 1)"},
       {"calibration:", "specificity: {min_cases_per_group: 1}\ncalibration:", "at least 2"},
+      {"calibration:", "specificity: {require_converged: maybe}\ncalibration:", "expected true or false"},
   };
   for (const auto& b : bad) {
     std::string t = text;
@@ -181,6 +182,24 @@ TEST(SpecificityCommand, TooFewCalibratedCasesPerGroupExitsOneWithTheStatusWritt
   EXPECT_EQ(f.string_attribute("/summary", "status"), "no-statistics");
   EXPECT_EQ(f.read_matrix("/cases/mean").rows(), 8);
   EXPECT_NE(r.out.find("no statistics"), std::string::npos) << r.out;
+}
+
+// require_converged: a calibration stopped by the iteration limit is a failed case (listed with
+// that reason), whatever UtSummary::ok() says; without it the same run counts.
+TEST(SpecificityCommand, RequireConvergedTurnsTheIterationLimitIntoAFailure) {
+  const auto dir = scratch_dir();
+  const auto config = write_cohort(dir, "specificity: {groups: [healthy, failing], require_converged: true}\n");
+  const CliRun strict = cli({"--log-level", "off", "specificity", config.string(), "-o", (dir / "s.h5").string(),
+                             "--summary", (dir / "s.json").string(), "--threads", "1", "--set",
+                             "calibration.max_iterations=1"});
+  EXPECT_EQ(strict.code, kExitRuntimeFailure) << strict.err;
+  const auto j = nlohmann::json::parse(read_file(dir / "s.json"));
+  EXPECT_EQ(j["failed_cases"].size(), 8u);
+  EXPECT_NE(j["cases"][0]["status"].get<std::string>().find("iteration limit"), std::string::npos) << j["cases"][0];
+  const CliRun lax = cli({"--log-level", "off", "specificity", config.string(), "-o", (dir / "l.h5").string(),
+                          "--threads", "1", "--set", "calibration.max_iterations=1", "--set",
+                          "specificity.require_converged=false"});
+  EXPECT_EQ(lax.code, kExitOk) << lax.err;
 }
 
 TEST(SpecificityCommand, ReadsTheCasesFromACaseListFile) {
