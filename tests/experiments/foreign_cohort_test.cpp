@@ -23,19 +23,19 @@ namespace {
 const std::filesystem::path kBundled =
     std::filesystem::path(SIGMAHEART_SOURCE_DIR) / "configs/data/foreign-cohort";
 
-// The results of the bundled cohort, simulated once.
+std::filesystem::path scratch(const std::string& what) {
+  return std::filesystem::temp_directory_path() / ("foreign_cohort_test_" + what + "_" + std::to_string(::getpid()));
+}
+
+// The results of the bundled cohort, simulated once (files written to a scratch folder, removed).
 const std::vector<CohortResult>& fresh() {
-  static const std::filesystem::path dir =
-      std::filesystem::temp_directory_path() / ("foreign_cohort_test_" + std::to_string(::getpid()));
   static const std::vector<CohortResult> r = [] {
+    const auto dir = scratch("results");
+    auto results = write_cohort(dir);
     std::filesystem::remove_all(dir);
-    return write_cohort(dir);
+    return results;
   }();
   return r;
-}
-std::filesystem::path fresh_dir() {
-  fresh();
-  return std::filesystem::temp_directory_path() / ("foreign_cohort_test_" + std::to_string(::getpid()));
 }
 
 double drawn(const BenchCase& c, const std::string& name) {
@@ -72,8 +72,11 @@ bool same_text(const std::filesystem::path& a, const std::filesystem::path& b, s
 }
 
 TEST(ForeignCohort, BundledFilesEqualWhatTheProgramWrites) {
+  const auto dir = scratch("files");
+  std::filesystem::remove_all(dir);
+  write_cohort(dir);
   std::vector<std::string> names;
-  for (const auto& e : std::filesystem::directory_iterator(fresh_dir())) names.push_back(e.path().filename());
+  for (const auto& e : std::filesystem::directory_iterator(dir)) names.push_back(e.path().filename());
   std::sort(names.begin(), names.end());
   EXPECT_EQ(names.size(), 26u);  // 24 subjects + cases.yaml + subjects.yaml
   size_t bundled = 0;
@@ -81,10 +84,10 @@ TEST(ForeignCohort, BundledFilesEqualWhatTheProgramWrites) {
   EXPECT_EQ(bundled, names.size()) << "stale or missing files in " << kBundled;
   for (const auto& n : names) {
     std::string where;
-    EXPECT_TRUE(same_text(kBundled / n, fresh_dir() / n, where)) << where;
+    EXPECT_TRUE(same_text(kBundled / n, dir / n, where)) << where;
     EXPECT_LT(std::filesystem::file_size(kBundled / n), 20'000u) << n;
   }
-  std::filesystem::remove_all(fresh_dir());  // the other tests use the results in memory
+  std::filesystem::remove_all(dir);
 }
 
 TEST(ForeignCohort, DrawsHaveTheStatedMeanAndSpread) {
