@@ -22,6 +22,11 @@ constexpr std::array<estimation::EnumName<SpecificityParallel>, 3> kParallelName
     {SpecificityParallel::kEnsemble, "ensemble"},
 }};
 
+constexpr std::array<estimation::EnumName<sp::PAdjust>, 2> kAdjustNames{{
+    {sp::PAdjust::kHolm, "holm"},
+    {sp::PAdjust::kBenjaminiHochberg, "benjamini-hochberg"},
+}};
+
 CaseEntry parse_case(const Config& config, const ConfigNode& node, const std::filesystem::path& base) {
   if (!node.is_map()) node.fail("expected a case {name: ..., file: ..., group: ...}");
   node.check_keys({"name", "file", "group", "truth", "description"});
@@ -99,7 +104,8 @@ estimation::UtCalibration make_calibration(const CalibrationProblem& problem,
 SpecificitySection parse_specificity_section(const Config& config) {
   SpecificitySection s;
   const ConfigNode node = config.file.root()["specificity"];
-  node.check_keys({"groups", "lda_shrinkage", "parallel", "threads"});
+  node.check_keys({"groups", "lda_shrinkage", "adjust", "alpha", "min_cases_per_group", "require_converged",
+                   "parallel", "threads"});
   if (node.has("groups")) {
     const auto g = node["groups"].as<std::vector<std::string>>();
     if (g.size() != 2 || g[0] == g[1]) node["groups"].fail("expected two different group labels [a, b]");
@@ -108,6 +114,15 @@ SpecificitySection parse_specificity_section(const Config& config) {
   }
   s.lda_shrinkage = node.optional<double>("lda_shrinkage", s.lda_shrinkage);
   if (!(s.lda_shrinkage >= 0.0 && s.lda_shrinkage <= 1.0)) node["lda_shrinkage"].fail("expected a value in [0, 1]");
+  if (node.has("adjust")) {
+    s.adjust = *estimation::enum_from_string(kAdjustNames,
+                                             node["adjust"].as_choice({"holm", "benjamini-hochberg"}));
+  }
+  s.alpha = node.optional<double>("alpha", s.alpha);
+  if (!(s.alpha > 0.0 && s.alpha < 1.0)) node["alpha"].fail("expected a level in (0, 1)");
+  s.min_cases_per_group = node.optional<int>("min_cases_per_group", s.min_cases_per_group);
+  if (s.min_cases_per_group < 2) node["min_cases_per_group"].fail("expected at least 2 (a sample variance)");
+  s.require_converged = node.optional<bool>("require_converged", s.require_converged);
   if (node.has("parallel")) {
     s.parallel = *estimation::enum_from_string(
         kParallelNames, node["parallel"].as_choice({"auto", "cases", "ensemble"}));
@@ -167,7 +182,7 @@ std::string validate_case(const CalibrationProblem& problem, estimation::Forward
 }
 
 sp::CaseCalibration calibrate_case(const CalibrationProblem& problem, estimation::ForwardModel& model,
-                                   int threads) {
+                                   int threads, bool require_converged) {
   const auto t0 = std::chrono::steady_clock::now();
   estimation::UtOptions options = problem.options;
   options.ensemble.threads = threads;
@@ -185,6 +200,12 @@ sp::CaseCalibration calibrate_case(const CalibrationProblem& problem, estimation
   if (!s.ok()) {
     out.status = model::Status::Error(model::StatusCode::kDiverged,
                                       "calibration ended early (" + out.termination + "): " + s.message);
+    return out;
+  }
+  if (require_converged && s.termination == estimation::UtTermination::kMaxIterations) {
+    out.message = "stopped at the iteration limit without converging, a failure under "
+                  "specificity.require_converged (" + s.message + ")";
+    out.status = model::Status::Error(model::StatusCode::kDiverged, out.message);
     return out;
   }
   out.status = model::Status::Ok();

@@ -16,8 +16,10 @@
 // them busy until the last one. The numbers do not depend on the choice. Only the root rank prints
 // and writes.
 //
-// Exit codes: 0 done (cases whose calibration failed are dropped, listed and warned about);
-// 2 bad input; 1 when the statistics cannot be computed (fewer than 2 calibrated cases in a group).
+// Exit codes: 0 done (cases whose calibration failed are dropped, listed and warned about: the
+// exclusion policy of estimation/specificity/specificity.h); 2 bad input; 1 when the statistics
+// cannot be computed (fewer than specificity.min_cases_per_group calibrated cases in a compared
+// group), with status "no-statistics" and every case's status in the results and the summary.
 #include "app/commands/commands.h"
 #include "app/config.h"
 #include "app/errors.h"
@@ -82,13 +84,16 @@ int run_specificity_command(const StudyOptions& o, CommandContext& ctx) {
   so.group_a = setup.section.group_a;
   so.group_b = setup.section.group_b;
   so.lda_shrinkage = setup.section.lda_shrinkage;
+  so.adjust = setup.section.adjust;
+  so.alpha = setup.section.alpha;
+  so.min_cases_per_group = setup.section.min_cases_per_group;
   so.case_threads = run.by_case ? run.threads : 1;
   so.progress = [&line](int done, int, const std::string&) { line.update(done); };
   const sp::SpecificitySummary summary = sp::run_specificity(
       cohort,
       [&](const sp::CohortCase& c) {
         const size_t i = index_of.at(c.id);
-        return calibrate_case(setup.problems[i], *forwards[i], ensemble_threads);
+        return calibrate_case(setup.problems[i], *forwards[i], ensemble_threads, setup.section.require_converged);
       },
       so);
   line.finish();

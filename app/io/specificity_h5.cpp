@@ -53,6 +53,11 @@ const std::vector<StatisticColumn>& statistic_columns() {
       {"welch_t", false, [](const S& q) { return q.welch.t; }},
       {"welch_df", false, [](const S& q) { return q.welch.df; }},
       {"welch_p", false, [](const S& q) { return q.welch.p_value; }},
+      {"posterior_welch_t", false, [](const S& q) { return q.posterior_welch.t; }},
+      {"posterior_welch_df", false, [](const S& q) { return q.posterior_welch.df; }},
+      {"posterior_welch_p", false, [](const S& q) { return q.posterior_welch.p_value; }},
+      {"p_adjusted", false, [](const S& q) { return q.p_adjusted; }},
+      {"different", false, [](const S& q) { return q.different ? 1.0 : 0.0; }},
       {"mann_whitney_u", false, [](const S& q) { return q.mann_whitney.U; }},
       {"mann_whitney_p", false, [](const S& q) { return q.mann_whitney.p_value; }},
       {"auc", false, [](const S& q) { return q.mann_whitney.auc; }},
@@ -115,8 +120,16 @@ void write_statistics(Hdf5Writer& h5, const SpecificitySetup& setup, const sp::S
   h5.set_attribute("/statistics", "group_a", s.group_a);
   h5.set_attribute("/statistics", "group_b", s.group_b);
   h5.set_attribute("/statistics", "tests",
-                   "Welch t (two-sided); Mann-Whitney U (exact without ties for n <= 40, else normal "
-                   "with tie correction); AUC = U / (n_a n_b) = P(a > b); effect sizes a over b");
+                   "every difference b - a; Welch t (two-sided) on the posterior means; posterior Welch: "
+                   "each case's posterior variance added to the between-case variance (the primary test), "
+                   "p_adjusted its p over the parameters; Mann-Whitney U (exact without ties for n <= 40, "
+                   "else normal with tie correction); AUC = U / (n_a n_b) = P(b > a)");
+  h5.set_attribute("/statistics", "adjust", sp::to_string(s.adjust));
+  h5.set_attribute("/statistics", "alpha", s.alpha);
+  std::vector<std::string> directions;
+  for (const auto& q : s.parameters) directions.push_back(q.direction);
+  h5.write_strings("/statistics/direction", directions);
+  h5.set_attribute("/statistics/direction", "description", "group b higher, lower or none against group a (AUC vs 0.5)");
   const auto p = static_cast<Eigen::Index>(s.parameters.size());
   for (const StatisticColumn& c : statistic_columns()) {
     Eigen::VectorXd v(p);
@@ -126,7 +139,7 @@ void write_statistics(Hdf5Writer& h5, const SpecificitySetup& setup, const sp::S
   std::vector<std::string> ranked;
   for (int j : s.ranking) ranked.push_back(setup.names[static_cast<size_t>(j)]);
   h5.write_strings("/statistics/ranking", ranked);
-  h5.set_attribute("/statistics/ranking", "description", "by decreasing |AUC - 0.5|, ties by Welch p");
+  h5.set_attribute("/statistics/ranking", "description", "by increasing posterior Welch p, ties by decreasing |AUC - 0.5|");
 
   const auto& cl = s.classifier;
   h5.create_group("/classifier");
@@ -179,6 +192,8 @@ void write_specificity_h5(Hdf5Writer& h5, const SpecificitySetup& setup,
   h5.create_group("/summary");
   h5.set_attribute("/summary", "wall_seconds", run.wall_seconds);
   h5.set_attribute("/summary", "parallel", parallel_name(run));
+  h5.set_attribute("/summary", "status", sp::to_string(summary.status));
+  h5.set_attribute("/summary", "message", summary.message);
 }
 
 nlohmann::ordered_json specificity_json(const std::string& name, const SpecificitySetup& setup,
@@ -221,6 +236,8 @@ nlohmann::ordered_json specificity_json(const std::string& name, const Specifici
   if (s.ok()) {
     j["group_a"] = s.group_a;
     j["group_b"] = s.group_b;
+    j["adjust"] = sp::to_string(s.adjust);
+    j["alpha"] = s.alpha;
     for (int k : s.ranking) {
       const auto& q = s.parameters[static_cast<size_t>(k)];
       j["ranking"].push_back(q.name);
@@ -230,6 +247,11 @@ nlohmann::ordered_json specificity_json(const std::string& name, const Specifici
                                  {"posterior_sd_a", q.posterior_sd_a}, {"posterior_sd_b", q.posterior_sd_b},
                                  {"cohen_d", q.effect.cohen_d}, {"hedges_g", q.effect.hedges_g},
                                  {"welch_t", q.welch.t}, {"welch_df", q.welch.df}, {"welch_p", q.welch.p_value},
+                                 {"posterior_welch_t", q.posterior_welch.t},
+                                 {"posterior_welch_df", q.posterior_welch.df},
+                                 {"posterior_welch_p", q.posterior_welch.p_value},
+                                 {"p_adjusted", q.p_adjusted}, {"different", q.different},
+                                 {"direction", q.direction},
                                  {"mann_whitney_u", q.mann_whitney.U}, {"mann_whitney_p", q.mann_whitney.p_value},
                                  {"mann_whitney_exact", q.mann_whitney.exact},
                                  {"auc", q.mann_whitney.auc}, {"auc_se", q.mann_whitney.auc_se}};
@@ -273,17 +295,23 @@ std::string specificity_report(const std::string& name, const SpecificitySetup& 
     t << "no statistics: " << s.message << "\n";
     return t.str();
   }
-  t << "\n" << s.group_a << " vs " << s.group_b << ", parameters by separation:\n";
-  t << std::left << std::setw(10) << "parameter" << std::right << std::setw(24) << s.group_a << std::setw(24)
-    << s.group_b << std::setw(9) << "g" << std::setw(11) << "Welch p" << std::setw(11) << "U p" << std::setw(7)
-    << "AUC" << std::setw(20) << "posterior sd a/b" << "\n";
+  t << "\n" << s.group_b << " against " << s.group_a << " (B - A), parameters by evidence; p of the Welch test "
+    << "with each case's posterior variance, adjusted by " << sp::to_string(s.adjust) << ", different at "
+    << fmt(s.alpha, 3) << ":\n";
+  t << std::left << std::setw(10) << "parameter" << std::right << std::setw(24) << ("A: " + s.group_a)
+    << std::setw(24) << ("B: " + s.group_b) << std::setw(9) << "g" << std::setw(11) << "Welch p" << std::setw(11)
+    << "post. p" << std::setw(11) << "adj. p" << std::setw(11) << "U p" << std::setw(11) << "AUC(B>A)"
+    << std::setw(20) << "posterior sd A/B" << "  B vs A\n";
   for (int j : s.ranking) {
     const auto& q = s.parameters[static_cast<size_t>(j)];
     t << std::left << std::setw(10) << q.name << std::right << std::setw(24)
       << (fmt(q.a.mean) + " +- " + fmt(q.a.sd, 2)) << std::setw(24) << (fmt(q.b.mean) + " +- " + fmt(q.b.sd, 2))
       << std::setw(9) << fmt(q.effect.hedges_g, 3) << std::setw(11) << fmt(q.welch.p_value, 2)
-      << std::setw(11) << fmt(q.mann_whitney.p_value, 2) << std::setw(7) << fmt(q.mann_whitney.auc, 2)
-      << std::setw(20) << (fmt(q.posterior_sd_a, 2) + " / " + fmt(q.posterior_sd_b, 2)) << "\n";
+      << std::setw(11) << fmt(q.posterior_welch.p_value, 2) << std::setw(11) << fmt(q.p_adjusted, 2)
+      << std::setw(11) << fmt(q.mann_whitney.p_value, 2) << std::setw(11) << fmt(q.mann_whitney.auc, 2)
+      << std::setw(20) << (fmt(q.posterior_sd_a, 2) + " / " + fmt(q.posterior_sd_b, 2)) << "  "
+      << (q.different ? q.direction + " (different)" : "not different") << " [" << setup.units[static_cast<size_t>(j)]
+      << "]\n";
   }
   if (s.classifier.valid) {
     t << "leave-one-out LDA accuracy " << fmt(100.0 * s.classifier.accuracy, 3) << " % ("

@@ -6,10 +6,13 @@
 //     parameter, SI), /cases/{iterations, simulations, seconds}, /cases/relative_error [%],
 //     /cases/observed, /cases/fitted (case x observation, clinical units, /cases/observation_units)
 //   /statistics/{mean_a, sd_a, mean_b, sd_b, posterior_sd_a, posterior_sd_b} (SI),
-//     {cohen_d, hedges_g, welch_t, welch_df, welch_p, mann_whitney_u, mann_whitney_p, auc, auc_se}
-//     per parameter, /statistics/ranking (names, most separating first); attributes group_a, group_b
+//     {cohen_d, hedges_g, welch_t, welch_df, welch_p, posterior_welch_t, posterior_welch_df,
+//     posterior_welch_p, p_adjusted, different, mann_whitney_u, mann_whitney_p, auc, auc_se} per
+//     parameter (every difference b - a, AUC = P(b > a)), /statistics/direction (b higher, lower,
+//     none), /statistics/ranking (names, strongest evidence first); attributes group_a, group_b,
+//     adjust, alpha
 //   /classifier (attributes valid, accuracy, correct, total, shrinkage, message), /classifier/predicted
-//   /failed/{names, messages}, /summary (attributes wall_seconds, parallel)
+//   /failed/{names, messages}, /summary (attributes wall_seconds, parallel, status, message)
 #pragma once
 
 #include "app/io/hdf5_writer.h"

@@ -30,6 +30,8 @@ std::string SpecificityOptions::validate() const {
   }
   if (!group_a.empty() && group_a == group_b) return "specificity study: group_a equals group_b";
   if (case_threads < 1) return "specificity study: case_threads must be >= 1";
+  if (!(alpha > 0.0 && alpha < 1.0)) return "specificity study: alpha must be in (0, 1)";
+  if (min_cases_per_group < 2) return "specificity study: min_cases_per_group must be >= 2";
   return {};
 }
 
@@ -129,11 +131,14 @@ SpecificityResult compare_groups(const std::vector<CaseEstimate>& cases,
   }
   const int n = static_cast<int>(r.cases.size());
   const int na = static_cast<int>(std::count(label.begin(), label.end(), 0));
-  if (na < 2 || n - na < 2) {
+  if (na < options.min_cases_per_group || n - na < options.min_cases_per_group) {
     throw std::invalid_argument("specificity study: groups '" + r.group_a + "' (" +
-                                std::to_string(na) + " cases) and '" + r.group_b + "' (" +
-                                std::to_string(n - na) + " cases) need at least 2 cases each");
+                                std::to_string(na) + " calibrated cases) and '" + r.group_b + "' (" +
+                                std::to_string(n - na) + " calibrated cases) need at least " +
+                                std::to_string(options.min_cases_per_group) + " each");
   }
+  r.adjust = options.adjust;
+  r.alpha = options.alpha;
 
   Eigen::MatrixXd X(n, p), SD(n, p);
   for (int i = 0; i < n; ++i) {
@@ -157,21 +162,30 @@ SpecificityResult compare_groups(const std::vector<CaseEstimate>& cases,
     s.b = summarise(xb);
     s.posterior_sd_a = sa.mean();
     s.posterior_sd_b = sb.mean();
-    s.effect = effect_size(xa, xb);
-    s.welch = welch_t_test(xa, xb);
-    s.mann_whitney = mann_whitney(xa, xb);
+    s.effect = effect_size(xb, xa);
+    s.welch = welch_t_test(xb, xa);
+    s.posterior_welch = posterior_welch_test(xb, sb, xa, sa);
+    s.mann_whitney = mann_whitney(xb, xa);
+    s.direction = auc_direction(s.mann_whitney.auc);
     r.parameters.push_back(s);
+  }
+  Eigen::VectorXd raw(p);
+  for (int j = 0; j < p; ++j) raw(j) = r.parameters[static_cast<size_t>(j)].posterior_welch.p_value;
+  const Eigen::VectorXd adjusted = adjust_p_values(raw, options.adjust);
+  for (int j = 0; j < p; ++j) {
+    auto& q = r.parameters[static_cast<size_t>(j)];
+    q.p_adjusted = adjusted(j);
+    q.different = q.p_adjusted < options.alpha;  // false for NaN
   }
   r.ranking.resize(static_cast<size_t>(p));
   std::iota(r.ranking.begin(), r.ranking.end(), 0);
   std::stable_sort(r.ranking.begin(), r.ranking.end(), [&](int i, int j) {
     const auto& a = r.parameters[static_cast<size_t>(i)];
     const auto& b = r.parameters[static_cast<size_t>(j)];
-    const double da = std::abs(a.mann_whitney.auc - 0.5), db = std::abs(b.mann_whitney.auc - 0.5);
-    if (da != db) return da > db;
-    const double pa = std::isnan(a.welch.p_value) ? 2.0 : a.welch.p_value;
-    const double pb = std::isnan(b.welch.p_value) ? 2.0 : b.welch.p_value;
-    return pa < pb;
+    const double pa = std::isnan(a.posterior_welch.p_value) ? 2.0 : a.posterior_welch.p_value;
+    const double pb = std::isnan(b.posterior_welch.p_value) ? 2.0 : b.posterior_welch.p_value;
+    if (pa != pb) return pa < pb;
+    return std::abs(a.mann_whitney.auc - 0.5) > std::abs(b.mann_whitney.auc - 0.5);
   });
 
   r.classifier = loo_lda(X, label, options.lda_shrinkage);
@@ -309,8 +323,8 @@ std::string SpecificityResult::report() const {
   std::ostringstream s;
   const auto na = std::count_if(cases.begin(), cases.end(),
                                 [&](const CaseEstimate& c) { return c.group == group_a; });
-  s << "Specificity: '" << group_a << "' (" << na << " cases) vs '" << group_b << "' ("
-    << cases.size() - static_cast<size_t>(na) << " cases)";
+  s << "Specificity: '" << group_b << "' (" << cases.size() - static_cast<size_t>(na) << " cases) against '"
+    << group_a << "' (" << na << " cases), p adjusted by " << to_string(adjust);
   if (!failed_cases.empty()) s << ", " << failed_cases.size() << " calibrations failed";
   s << "\n";
   for (size_t i = 0; i < failed_cases.size(); ++i) {
@@ -321,9 +335,10 @@ std::string SpecificityResult::report() const {
     const ParameterSeparation& q = parameters[static_cast<size_t>(j)];
     s << "  " << std::setw(14) << std::left << q.name << std::right << " " << q.a.mean << " +- "
       << q.a.sd << " vs " << q.b.mean << " +- " << q.b.sd << "  g " << q.effect.hedges_g
-      << "  Welch t " << q.welch.t << " (df " << q.welch.df << ", p " << q.welch.p_value
-      << ")  U " << q.mann_whitney.U << " (p " << q.mann_whitney.p_value
-      << (q.mann_whitney.exact ? ", exact" : "") << ")  AUC " << q.mann_whitney.auc << "\n";
+      << "  Welch p " << q.welch.p_value << ", with posterior p " << q.posterior_welch.p_value
+      << " (adjusted " << q.p_adjusted << (q.different ? ", different" : "") << ")  U " << q.mann_whitney.U
+      << " (p " << q.mann_whitney.p_value << (q.mann_whitney.exact ? ", exact" : "") << ")  AUC(B > A) "
+      << q.mann_whitney.auc << " " << q.direction << "\n";
   }
   if (classifier.valid) {
     s << "leave-one-out LDA accuracy " << classifier.accuracy << " (" << classifier.correct << "/"

@@ -1,7 +1,16 @@
 // Specificity study (docs/estimation.md s.7): calibrate every case of a cohort with the same
 // configuration, then ask which parameters separate two groups (e.g. volunteers and heart-failure
-// patients). Per parameter: group means and spreads, effect sizes, Welch's t and Mann-Whitney U
-// tests, the AUC; jointly: the leave-one-out accuracy of a shrunk linear discriminant.
+// patients). Per parameter, group B against group A: group means and spreads, effect sizes, Welch's
+// t test on the posterior means and with each case's posterior variance carried in (the primary
+// test), its p-value adjusted over the parameters (Holm or Benjamini-Hochberg), the Mann-Whitney U
+// test and the AUC of "B > A" with its direction; jointly: the leave-one-out accuracy of a shrunk
+// linear discriminant.
+//
+// Exclusion policy: a case enters the statistics only when its calibration returned an ok status
+// (for the UT calibration UtSummary::ok()) with finite estimates of the right size; every other case
+// is listed with its status (failed_cases, failure_status) and left out. When fewer than
+// SpecificityOptions::min_cases_per_group remain in either compared group there are no statistics
+// (status kNoStatistics, which the command turns into exit 1 with the per-case results written).
 // run_specificity returns a SpecificitySummary: every case's calibration record in cohort order
 // and the statistics, or the status kNoStatistics when the groups are too small (not an exception).
 //
@@ -62,8 +71,15 @@ struct CaseEstimate {
 struct SpecificityOptions {
   std::vector<std::string> parameters;  // names, in the order of the calibration's vectors
   // The compared groups; both empty: the two labels of the cohort in order of first appearance
-  // (the cohort must then have exactly two). Effect sizes and U are for group_a over group_b.
+  // (the cohort must then have exactly two). Every difference, effect size, U and the AUC is of
+  // group_b against group_a (B - A, P(B > A)); cases of other groups are ignored.
   std::string group_a, group_b;
+  // Adjustment of the primary p-values over the parameters, and the adjusted level below which a
+  // parameter is reported as different.
+  PAdjust adjust = PAdjust::kHolm;
+  double alpha = 0.05;
+  // Fewest calibrated cases per compared group for statistics (>= 2: a sample variance).
+  int min_cases_per_group = 2;
   // Linear discriminant (Fisher 1936) on the standardised posterior means with the pooled
   // within-group covariance shrunk towards its diagonal, S = (1 - lambda) S_pooled + lambda
   // diag(S_pooled) (Friedman 1989, J Am Stat Assoc 84:165, regularised discriminant analysis),
@@ -84,9 +100,14 @@ struct ParameterSeparation {
   GroupSummary a, b;              // posterior means across the cases of each group
   double posterior_sd_a = 0.0;    // mean posterior standard deviation over the cases of group a
   double posterior_sd_b = 0.0;
-  EffectSize effect;              // a over b
-  WelchResult welch;
-  MannWhitneyResult mann_whitney; // U, p, AUC = P(a > b) + P(a = b)/2, Hanley-McNeil SE
+  EffectSize effect;              // b over a
+  WelchResult welch;              // on the posterior means, b - a
+  // The primary test: posterior_welch_test (each case's posterior variance added); b - a.
+  WelchResult posterior_welch;
+  double p_adjusted = 1.0;        // posterior_welch.p_value adjusted over the parameters
+  bool different = false;         // p_adjusted < alpha
+  MannWhitneyResult mann_whitney; // U, p, AUC = P(b > a) + P(b = a)/2, Hanley-McNeil SE
+  std::string direction;          // auc_direction(AUC): b "higher", "lower" or "none"
 };
 
 struct ClassifierResult {
@@ -103,7 +124,7 @@ struct ClassifierResult {
 
 enum class SpecificityStatus {
   kOk,
-  kNoStatistics,  // fewer than 2 calibrated cases in a group (or none): per-case results only
+  kNoStatistics,  // fewer than min_cases_per_group calibrated cases in a group: per-case results only
 };
 const char* to_string(SpecificityStatus status);
 
@@ -113,7 +134,10 @@ struct SpecificityResult {
   std::vector<std::string> failed_cases;           // ids of cases whose calibration failed
   std::vector<model::Status> failure_status;       // their Status, same order
   std::vector<ParameterSeparation> parameters;     // order of SpecificityOptions::parameters
-  // Parameters by separation: decreasing |AUC - 0.5|, ties by increasing Welch p-value.
+  PAdjust adjust = PAdjust::kHolm;
+  double alpha = 0.05;
+  // Parameters by evidence: increasing primary (posterior Welch) p-value, ties by decreasing
+  // |AUC - 0.5|.
   std::vector<int> ranking;
   ClassifierResult classifier;
 
@@ -121,7 +145,7 @@ struct SpecificityResult {
 };
 
 // The statistics on already-calibrated cases. Throws std::invalid_argument on bad options, when a
-// case's vectors do not match the parameters, or when a group has fewer than 2 cases.
+// case's vectors do not match the parameters, or when a group has fewer than min_cases_per_group.
 SpecificityResult compare_groups(const std::vector<CaseEstimate>& cases,
                                  const SpecificityOptions& options);
 

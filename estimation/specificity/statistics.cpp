@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numeric>
 #include <stdexcept>
+#include <utility>
 #include <vector>
 
 namespace sigmaheart::estimation::specificity {
@@ -97,16 +99,15 @@ EffectSize effect_size(const Eigen::Ref<const Eigen::VectorXd>& x,
   return e;
 }
 
-WelchResult welch_t_test(const Eigen::Ref<const Eigen::VectorXd>& x,
-                         const Eigen::Ref<const Eigen::VectorXd>& y) {
-  const GroupSummary gx = summarise(x), gy = summarise(y);
-  if (gx.n < 2 || gy.n < 2) throw std::invalid_argument("welch_t_test: needs n >= 2 in each group");
+namespace {
+
+// Welch's t from the two group means and the variances of those means (vx, vy), n >= 2 each.
+WelchResult welch_from_variances(double mx, double vx, int nx, double my, double vy, int ny) {
   WelchResult w;
-  w.mean_difference = gx.mean - gy.mean;
-  const double vx = gx.sd * gx.sd / gx.n, vy = gy.sd * gy.sd / gy.n;
+  w.mean_difference = mx - my;
   const double se2 = vx + vy;
   if (se2 == 0.0) {
-    w.df = gx.n + gy.n - 2.0;
+    w.df = nx + ny - 2.0;
     if (w.mean_difference == 0.0) {
       w.t = kNaN;
       w.p_value = kNaN;
@@ -117,10 +118,79 @@ WelchResult welch_t_test(const Eigen::Ref<const Eigen::VectorXd>& x,
     return w;
   }
   w.t = w.mean_difference / std::sqrt(se2);
-  w.df = se2 * se2 / (vx * vx / (gx.n - 1) + vy * vy / (gy.n - 1));
+  w.df = se2 * se2 / (vx * vx / (nx - 1) + vy * vy / (ny - 1));
   // Two-sided: 2 P(T > |t|) = I_{df/(df+t^2)}(df/2, 1/2).
   w.p_value = regularized_incomplete_beta(0.5 * w.df, 0.5, w.df / (w.df + w.t * w.t));
   return w;
+}
+
+// Inverse-variance weighted mean and its variance with var x_i = tau^2 + s_i^2 (see the header).
+std::pair<double, double> random_effects_mean(const Eigen::Ref<const Eigen::VectorXd>& x,
+                                              const Eigen::Ref<const Eigen::VectorXd>& sd) {
+  const GroupSummary g = summarise(x);
+  const Eigen::ArrayXd s2 = sd.array().isNaN().select(0.0, sd.array().square());
+  const Eigen::ArrayXd v = g.sd * g.sd + s2;
+  if ((v == 0.0).any()) return {g.mean, 0.0};  // tau = 0 and an exact estimate: no spread
+  const Eigen::ArrayXd w = v.inverse();
+  return {(w * x.array()).sum() / w.sum(), 1.0 / w.sum()};
+}
+
+}  // namespace
+
+WelchResult welch_t_test(const Eigen::Ref<const Eigen::VectorXd>& x,
+                         const Eigen::Ref<const Eigen::VectorXd>& y) {
+  const GroupSummary gx = summarise(x), gy = summarise(y);
+  if (gx.n < 2 || gy.n < 2) throw std::invalid_argument("welch_t_test: needs n >= 2 in each group");
+  return welch_from_variances(gx.mean, gx.sd * gx.sd / gx.n, gx.n, gy.mean, gy.sd * gy.sd / gy.n, gy.n);
+}
+
+WelchResult posterior_welch_test(const Eigen::Ref<const Eigen::VectorXd>& x,
+                                 const Eigen::Ref<const Eigen::VectorXd>& sd_x,
+                                 const Eigen::Ref<const Eigen::VectorXd>& y,
+                                 const Eigen::Ref<const Eigen::VectorXd>& sd_y) {
+  if (x.size() < 2 || y.size() < 2) {
+    throw std::invalid_argument("posterior_welch_test: needs n >= 2 in each group");
+  }
+  if (sd_x.size() != x.size() || sd_y.size() != y.size()) {
+    throw std::invalid_argument("posterior_welch_test: one posterior sd per estimate");
+  }
+  const auto [mx, vx] = random_effects_mean(x, sd_x);
+  const auto [my, vy] = random_effects_mean(y, sd_y);
+  return welch_from_variances(mx, vx, static_cast<int>(x.size()), my, vy, static_cast<int>(y.size()));
+}
+
+const char* to_string(PAdjust method) {
+  return method == PAdjust::kHolm ? "holm" : "benjamini-hochberg";
+}
+
+Eigen::VectorXd adjust_p_values(const Eigen::Ref<const Eigen::VectorXd>& p, PAdjust method) {
+  Eigen::VectorXd out = Eigen::VectorXd::Constant(p.size(), kNaN);
+  std::vector<Eigen::Index> order;
+  for (Eigen::Index i = 0; i < p.size(); ++i) {
+    if (!std::isnan(p(i))) order.push_back(i);
+  }
+  std::stable_sort(order.begin(), order.end(), [&](Eigen::Index a, Eigen::Index b) { return p(a) < p(b); });
+  const auto m = static_cast<double>(order.size());
+  if (method == PAdjust::kHolm) {
+    double running = 0.0;  // step-down: the running maximum from the smallest p
+    for (size_t j = 0; j < order.size(); ++j) {
+      running = std::max(running, std::min(1.0, (m - static_cast<double>(j)) * p(order[j])));
+      out(order[j]) = running;
+    }
+  } else {
+    double running = 1.0;  // step-up: the running minimum from the largest p
+    for (size_t j = order.size(); j-- > 0;) {
+      running = std::min(running, std::min(1.0, m * p(order[j]) / static_cast<double>(j + 1)));
+      out(order[j]) = running;
+    }
+  }
+  return out;
+}
+
+std::string auc_direction(double auc) {
+  if (auc > 0.5) return "higher";
+  if (auc < 0.5) return "lower";
+  return "none";
 }
 
 MannWhitneyResult mann_whitney(const Eigen::Ref<const Eigen::VectorXd>& x,

@@ -1,8 +1,12 @@
 // Two-sample statistics for the specificity study (docs/estimation.md s.7): effect sizes, Welch's t
-// test, the Mann-Whitney U test and the AUC, with the special functions they need.
+// test (also with each subject's posterior variance carried in), the Mann-Whitney U test and the
+// AUC, multiple-comparison adjustment (Holm, Benjamini-Hochberg), and the special functions they
+// need.
 #pragma once
 
 #include <Eigen/Core>
+
+#include <string>
 
 namespace sigmaheart::estimation::specificity {
 
@@ -68,5 +72,36 @@ struct MannWhitneyResult {
 };
 MannWhitneyResult mann_whitney(const Eigen::Ref<const Eigen::VectorXd>& x,
                                const Eigen::Ref<const Eigen::VectorXd>& y);
+
+// Welch's test on per-subject estimates that carry their own posterior variance (docs/estimation.md
+// s.7). Each subject i of a group is x_i = mu + b_i + e_i with a between-subject deviation b_i of
+// variance tau^2 and an estimation error e_i of variance s_i^2 (its posterior variance), so
+// var x_i = tau^2 + s_i^2 (the random-effects model of DerSimonian & Laird 1986, Control Clin Trials
+// 7:177, eq. 2). The group mean is the inverse-variance weighted mean with w_i = 1 / (tau^2 + s_i^2),
+// its variance V = 1 / sum w_i (ibid., eqs. 3-4); t = (m_x - m_y) / sqrt(V_x + V_y) with the
+// Welch-Satterthwaite df = (V_x + V_y)^2 / (V_x^2 / (n_x - 1) + V_y^2 / (n_y - 1)).
+// tau^2 is the sample variance of the x_i themselves, NOT reduced by the mean s_i^2 as DerSimonian
+// and Laird do: the scatter of posterior means need not contain the posterior spread (a calibration
+// shrinks towards its prior), so the posterior variance is added on top. With every s_i = 0 this is
+// exactly welch_t_test; large s_i make a difference non-significant. NaN s_i count as 0.
+WelchResult posterior_welch_test(const Eigen::Ref<const Eigen::VectorXd>& x,
+                                 const Eigen::Ref<const Eigen::VectorXd>& sd_x,
+                                 const Eigen::Ref<const Eigen::VectorXd>& y,
+                                 const Eigen::Ref<const Eigen::VectorXd>& sd_y);
+
+// Multiple-comparison adjustment of m p-values (one per parameter): an adjusted p-value is the
+// smallest family level at which the hypothesis would be rejected. NaN entries stay NaN and do not
+// count in m.
+//  - Holm 1979 (Scand J Stat 6:65), step-down, controls the family-wise error rate:
+//    p~_(i) = max_{j <= i} min(1, (m - j + 1) p_(j)), p_(1) <= ... <= p_(m).
+//  - Benjamini & Hochberg 1995 (J R Stat Soc B 57:289), step-up, controls the false discovery rate
+//    for independent (or positively dependent) tests: p~_(i) = min_{j >= i} min(1, m p_(j) / j).
+enum class PAdjust { kHolm, kBenjaminiHochberg };
+const char* to_string(PAdjust method);
+Eigen::VectorXd adjust_p_values(const Eigen::Ref<const Eigen::VectorXd>& p, PAdjust method);
+
+// Which way group B lies from group A, from AUC = P(B > A) + P(B = A)/2: "higher" (AUC > 0.5),
+// "lower" (AUC < 0.5) or "none" (AUC = 0.5).
+std::string auc_direction(double auc);
 
 }  // namespace sigmaheart::estimation::specificity

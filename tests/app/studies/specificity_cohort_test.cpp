@@ -83,7 +83,8 @@ TEST(SpecificityCohort, OnlySigma0DiffersAndTheStudyNamesSigma0First) {
   ASSERT_EQ(code, kExitOk) << err.str() << out.str();
   const auto j = nlohmann::json::parse(read_file(dir / "r.json"));
   EXPECT_EQ(j["ranking"][0], "sigma0") << out.str();
-  EXPECT_DOUBLE_EQ(j["statistics"]["sigma0"]["auc"].get<double>(), 1.0);
+  EXPECT_DOUBLE_EQ(j["statistics"]["sigma0"]["auc"].get<double>(), 0.0);  // AUC(failing > healthy)
+  EXPECT_EQ(j["statistics"]["sigma0"]["direction"], "lower");
   EXPECT_NEAR(j["statistics"]["sigma0"]["mann_whitney_p"].get<double>(), 0.1, 1e-9);  // exact 3 vs 3: 2/20
   EXPECT_GT(j["statistics"]["R_d"]["mann_whitney_p"].get<double>(), 0.3);
   for (const auto& c : j["cases"]) {

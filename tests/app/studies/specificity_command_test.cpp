@@ -79,7 +79,11 @@ TEST(SpecificityCommand, CohortWhereOnlyEfDiffersNamesEfFirst) {
   ASSERT_EQ(j["ranking"].size(), 3u);
   EXPECT_EQ(j["ranking"][0], "EF") << r.out;
   const auto& ef = j["statistics"]["EF"];
-  EXPECT_DOUBLE_EQ(ef["auc"].get<double>(), 1.0);                 // every healthy EF above every failing one
+  EXPECT_DOUBLE_EQ(ef["auc"].get<double>(), 0.0);  // AUC(failing > healthy): every failing EF below
+  EXPECT_EQ(ef["direction"], "lower");
+  EXPECT_TRUE(ef["different"].get<bool>());
+  EXPECT_EQ(j["adjust"], "holm");
+  EXPECT_FALSE(j["statistics"]["V_ed"]["different"].get<bool>());
   EXPECT_NEAR(ef["mann_whitney_p"].get<double>(), 2.0 / 70.0, 1e-9);  // exact, 4 vs 4: 2 / C(8, 4)
   EXPECT_LT(ef["welch_p"].get<double>(), 1e-4);
   EXPECT_NEAR(ef["mean_a"].get<double>(), 0.5975, 0.01);
@@ -142,6 +146,10 @@ TEST(SpecificityCommand, BadCohortsGiveLocatedErrorsAndExitTwo) {
       {"estimate:\n  V_ed", "estimate:\n  V_edd", "V_edd"},
       {"observations:\n", "observations:\n  file: data/h1.csv\n", "remove observations.file"},
       {"  indices: [EDV, EF, P_max]", "  indices: [EDV, EF, P_max]\n  curvs: [V_lv]", "curves"},
+      {"calibration:", "specificity: {adjust: bonferroni}\ncalibration:", "benjamini-hochberg"},
+      {"calibration:", "specificity: {alpha: 1.5}\ncalibration:", "expected a level in (0, 1)"},
+      {"calibration:", "specificity: {min_cases_per_group: 1}\ncalibration:", "at least 2"},
+      {"calibration:", "specificity: {require_converged: maybe}\ncalibration:", "expected true or false"},
   };
   for (const auto& b : bad) {
     std::string t = text;
@@ -155,6 +163,43 @@ TEST(SpecificityCommand, BadCohortsGiveLocatedErrorsAndExitTwo) {
     EXPECT_NE(r.err.find(b.words), std::string::npos) << b.to << "\n" << r.err;
     EXPECT_FALSE(std::filesystem::exists(dir / "r.h5"));
   }
+}
+
+// The exclusion policy's floor: with more cases required per group than calibrate, the study
+// writes every case's results and the status, and exits 1.
+TEST(SpecificityCommand, TooFewCalibratedCasesPerGroupExitsOneWithTheStatusWritten) {
+  const auto dir = scratch_dir();
+  const auto config = write_cohort(dir, "specificity: {groups: [healthy, failing], min_cases_per_group: 5}\n");
+  const CliRun r = cli({"--log-level", "off", "specificity", config.string(), "-o", (dir / "r.h5").string(),
+                        "--summary", (dir / "r.json").string(), "--threads", "1"});
+  EXPECT_EQ(r.code, kExitRuntimeFailure) << r.err << r.out;
+  EXPECT_NE(r.err.find("need at least 5 each"), std::string::npos) << r.err;
+  const auto j = nlohmann::json::parse(read_file(dir / "r.json"));
+  EXPECT_EQ(j["status"], "no-statistics");
+  EXPECT_FALSE(j["valid"].get<bool>());
+  EXPECT_EQ(j["cases"].size(), 8u);
+  io::Hdf5Reader f(dir / "r.h5");
+  EXPECT_EQ(f.string_attribute("/summary", "status"), "no-statistics");
+  EXPECT_EQ(f.read_matrix("/cases/mean").rows(), 8);
+  EXPECT_NE(r.out.find("no statistics"), std::string::npos) << r.out;
+}
+
+// require_converged: a calibration stopped by the iteration limit is a failed case (listed with
+// that reason), whatever UtSummary::ok() says; without it the same run counts.
+TEST(SpecificityCommand, RequireConvergedTurnsTheIterationLimitIntoAFailure) {
+  const auto dir = scratch_dir();
+  const auto config = write_cohort(dir, "specificity: {groups: [healthy, failing], require_converged: true}\n");
+  const CliRun strict = cli({"--log-level", "off", "specificity", config.string(), "-o", (dir / "s.h5").string(),
+                             "--summary", (dir / "s.json").string(), "--threads", "1", "--set",
+                             "calibration.max_iterations=1"});
+  EXPECT_EQ(strict.code, kExitRuntimeFailure) << strict.err;
+  const auto j = nlohmann::json::parse(read_file(dir / "s.json"));
+  EXPECT_EQ(j["failed_cases"].size(), 8u);
+  EXPECT_NE(j["cases"][0]["status"].get<std::string>().find("iteration limit"), std::string::npos) << j["cases"][0];
+  const CliRun lax = cli({"--log-level", "off", "specificity", config.string(), "-o", (dir / "l.h5").string(),
+                          "--threads", "1", "--set", "calibration.max_iterations=1", "--set",
+                          "specificity.require_converged=false"});
+  EXPECT_EQ(lax.code, kExitOk) << lax.err;
 }
 
 TEST(SpecificityCommand, ReadsTheCasesFromACaseListFile) {

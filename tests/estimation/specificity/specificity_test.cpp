@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
@@ -77,11 +78,21 @@ TEST(Specificity, TheOnlyParameterThatDiffersBetweenGroupsIsRankedFirst) {
   EXPECT_EQ(r.ranking.front(), 2) << r.report();
   const auto& s = r.parameters[2];
   EXPECT_EQ(s.name, "sigma0");
-  EXPECT_GT(s.mann_whitney.auc, 0.9) << r.report();
+  // Every difference is of heart-failure (B) against volunteers (A): sigma0 is lower in B.
+  EXPECT_LT(s.mann_whitney.auc, 0.1) << r.report();
+  EXPECT_EQ(s.direction, "lower");
   EXPECT_LT(s.welch.p_value, 1e-4) << r.report();
-  EXPECT_GT(s.effect.hedges_g, 1.5);
-  // The others do not separate at the 1 % level.
-  for (int j : {0, 1, 3}) EXPECT_GT(r.parameters[static_cast<size_t>(j)].welch.p_value, 0.01) << j;
+  EXPECT_LT(s.effect.hedges_g, -1.5);
+  EXPECT_LT(s.welch.mean_difference, 0.0);
+  EXPECT_TRUE(s.different) << r.report();
+  EXPECT_LT(s.p_adjusted, 1e-3);
+  // The others do not separate at the 1 % level, and none is reported as different after Holm.
+  for (int j : {0, 1, 3}) {
+    const auto& q = r.parameters[static_cast<size_t>(j)];
+    EXPECT_GT(q.welch.p_value, 0.01) << j;
+    EXPECT_FALSE(q.different) << j << r.report();
+    EXPECT_GE(q.p_adjusted, q.posterior_welch.p_value) << j;
+  }
   ASSERT_TRUE(r.classifier.valid);
   EXPECT_GE(r.classifier.accuracy, 0.8) << r.report();
   EXPECT_EQ(r.classifier.total, 24);
@@ -228,4 +239,80 @@ TEST(Specificity, KnownValuesAreReportedPerCaseWithNaNWhereUnknown) {
   EXPECT_DOUBLE_EQ(t(1, 2), 90.0);
   EXPECT_TRUE(std::isnan(t(1, 1)));
   EXPECT_TRUE(std::isnan(t(0, 0)));
+}
+
+namespace {
+// The cohort's calibrations, with the cases of `failing` returning a failed status.
+sp::CalibrateFn failing_some(const Cohort& cohort, const std::vector<std::string>& failing) {
+  return [&cohort, failing](const sp::CohortCase& k) {
+    const auto i = static_cast<size_t>(&k - cohort.cases.data());
+    if (std::find(failing.begin(), failing.end(), k.id) != failing.end()) {
+      sp::CaseCalibration bad;
+      bad.termination = "aborted-failures";
+      bad.status = model::Status::Error(model::StatusCode::kDiverged, "diverged");
+      return bad;
+    }
+    return cohort.truth[i];
+  };
+}
+}  // namespace
+
+TEST(Specificity, TooFewSubjectsLeftAfterFailuresMeansNoStatistics) {
+  // The written policy: failed cases are left out; with min_cases_per_group 4, 3 calibrated patients
+  // are too few (status no-statistics, per-case results kept) and 4 are enough.
+  const Cohort cohort = make_cohort();
+  sp::SpecificityOptions o = options();
+  o.min_cases_per_group = 4;
+  const std::vector<std::string> nine = {"hf0", "hf1", "hf2", "hf3", "hf4", "hf5", "hf6", "hf7", "hf8"};
+  const auto r = sp::run_specificity(cohort.cases, failing_some(cohort, nine), o);
+  EXPECT_EQ(r.status, sp::SpecificityStatus::kNoStatistics);
+  EXPECT_NE(r.message.find("3 calibrated cases"), std::string::npos) << r.message;
+  EXPECT_NE(r.message.find("at least 4"), std::string::npos) << r.message;
+  EXPECT_EQ(r.failed_cases.size(), 9u);
+  EXPECT_EQ(r.case_status(12), "aborted-failures: diverged");
+  const auto eight = std::vector<std::string>(nine.begin(), nine.end() - 1);
+  const auto ok = sp::run_specificity(cohort.cases, failing_some(cohort, eight), o);
+  ASSERT_TRUE(ok.ok()) << ok.message;
+  EXPECT_EQ(ok.parameters[2].b.n, 4);
+  EXPECT_EQ(ok.parameters[2].a.n, 12);
+  o.min_cases_per_group = 1;
+  EXPECT_FALSE(o.validate().empty());
+}
+
+TEST(Specificity, LargePosteriorSpreadKeepsAParameterFromBeingFlagged) {
+  // The same cohort, once with posterior sds of 0.1 and once of 3 between-subject sds: sigma0 is
+  // 3 sds lower in the patients, significant on the means either way, but with that posterior
+  // spread the primary test (posterior variance carried in) no longer calls it different.
+  Cohort cohort = make_cohort();
+  std::vector<sp::CaseEstimate> precise, vague;
+  const Eigen::Vector4d spread(0.2, 2.0, 10.0, 0.1);
+  for (size_t i = 0; i < cohort.cases.size(); ++i) {
+    const auto& c = cohort.cases[i];
+    precise.push_back({c.id, c.group, cohort.truth[i].mean, 0.1 * spread});
+    vague.push_back({c.id, c.group, cohort.truth[i].mean, 3.0 * spread});
+  }
+  const auto a = sp::compare_groups(precise, options());
+  const auto b = sp::compare_groups(vague, options());
+  EXPECT_TRUE(a.parameters[2].different);
+  EXPECT_EQ(a.parameters[2].welch.p_value, b.parameters[2].welch.p_value);
+  EXPECT_LT(b.parameters[2].welch.p_value, 1e-4);
+  EXPECT_FALSE(b.parameters[2].different) << b.report();
+  EXPECT_GT(b.parameters[2].p_adjusted, 0.05);
+}
+
+TEST(Specificity, BenjaminiHochbergIsNeverStricterThanHolm) {
+  const Cohort cohort = make_cohort();
+  std::vector<sp::CaseEstimate> cases;
+  for (size_t i = 0; i < cohort.cases.size(); ++i) {
+    cases.push_back({cohort.cases[i].id, cohort.cases[i].group, cohort.truth[i].mean, cohort.truth[i].sd});
+  }
+  sp::SpecificityOptions holm = options(), bh = options();
+  bh.adjust = sp::PAdjust::kBenjaminiHochberg;
+  const auto h = sp::compare_groups(cases, holm);
+  const auto b = sp::compare_groups(cases, bh);
+  for (size_t j = 0; j < 4; ++j) {
+    EXPECT_LE(b.parameters[j].p_adjusted, h.parameters[j].p_adjusted + 1e-15) << j;
+    EXPECT_GE(b.parameters[j].p_adjusted, b.parameters[j].posterior_welch.p_value) << j;
+  }
+  EXPECT_NE(b.report().find("benjamini-hochberg"), std::string::npos);
 }
