@@ -104,7 +104,7 @@ estimation::UtCalibration make_calibration(const CalibrationProblem& problem,
 SpecificitySection parse_specificity_section(const Config& config) {
   SpecificitySection s;
   const ConfigNode node = config.file.root()["specificity"];
-  node.check_keys({"groups", "lda_shrinkage", "adjust", "alpha", "min_cases_per_group", "require_converged",
+  node.check_keys({"groups", "lda_shrinkage", "adjust", "alpha", "min_cases_per_group",
                    "parallel", "threads"});
   if (node.has("groups")) {
     const auto g = node["groups"].as<std::vector<std::string>>();
@@ -122,7 +122,6 @@ SpecificitySection parse_specificity_section(const Config& config) {
   if (!(s.alpha > 0.0 && s.alpha < 1.0)) node["alpha"].fail("expected a level in (0, 1)");
   s.min_cases_per_group = node.optional<int>("min_cases_per_group", s.min_cases_per_group);
   if (s.min_cases_per_group < 2) node["min_cases_per_group"].fail("expected at least 2 (a sample variance)");
-  s.require_converged = node.optional<bool>("require_converged", s.require_converged);
   if (node.has("parallel")) {
     s.parallel = *estimation::enum_from_string(
         kParallelNames, node["parallel"].as_choice({"auto", "cases", "ensemble"}));
@@ -182,7 +181,7 @@ std::string validate_case(const CalibrationProblem& problem, estimation::Forward
 }
 
 sp::CaseCalibration calibrate_case(const CalibrationProblem& problem, estimation::ForwardModel& model,
-                                   int threads, bool require_converged) {
+                                   int threads) {
   const auto t0 = std::chrono::steady_clock::now();
   estimation::UtOptions options = problem.options;
   options.ensemble.threads = threads;
@@ -200,12 +199,6 @@ sp::CaseCalibration calibrate_case(const CalibrationProblem& problem, estimation
   if (!s.ok()) {
     out.status = model::Status::Error(model::StatusCode::kDiverged,
                                       "calibration ended early (" + out.termination + "): " + s.message);
-    return out;
-  }
-  if (require_converged && s.termination == estimation::UtTermination::kMaxIterations) {
-    out.message = "stopped at the iteration limit without converging, a failure under "
-                  "specificity.require_converged (" + s.message + ")";
-    out.status = model::Status::Error(model::StatusCode::kDiverged, out.message);
     return out;
   }
   out.status = model::Status::Ok();

@@ -14,8 +14,6 @@
 //     adjust: holm                 # holm | benjamini-hochberg: p-values adjusted over the parameters
 //     alpha: 0.05                  # adjusted level below which a parameter is reported as different
 //     min_cases_per_group: 2       # fewer calibrated cases in a compared group: no statistics, exit 1
-//     require_converged: false     # true: a calibration that stops at the iteration limit counts as
-//                                  # failed (listed, left out), whatever UtSummary::ok() says
 //     parallel: auto               # cases | ensemble | auto
 //     threads: 0                   # 0: all cores
 //
@@ -55,7 +53,6 @@ struct SpecificitySection {
   estimation::specificity::PAdjust adjust = estimation::specificity::PAdjust::kHolm;
   double alpha = 0.05;
   int min_cases_per_group = 2;
-  bool require_converged = false;
   SpecificityParallel parallel = SpecificityParallel::kAuto;
   int threads = 0;
 };
@@ -79,11 +76,10 @@ std::vector<estimation::specificity::CohortCase> cohort_of(const SpecificitySetu
 // The per-case UT calibration: the one place that builds a UtCalibration from a case's problem.
 // validate_case returns an empty string when the case's calibration can run; calibrate_case runs
 // it on `model` (a forward model of the case's observer) with the configured ensemble on `threads`
-// threads (1: serial). The case fails when !UtSummary::ok(), or with require_converged when the
-// calibration stopped at the iteration limit.
+// threads (1: serial). The case fails when !UtSummary::ok() (anything but converged, e.g. the
+// iteration limit, is a failed case: listed and left out of the statistics).
 std::string validate_case(const CalibrationProblem& problem, estimation::ForwardModel& model);
 estimation::specificity::CaseCalibration calibrate_case(const CalibrationProblem& problem,
-                                                        estimation::ForwardModel& model, int threads,
-                                                        bool require_converged = false);
+                                                        estimation::ForwardModel& model, int threads);
 
 }  // namespace sigmaheart::app

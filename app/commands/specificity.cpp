@@ -93,7 +93,7 @@ int run_specificity_command(const StudyOptions& o, CommandContext& ctx) {
       cohort,
       [&](const sp::CohortCase& c) {
         const size_t i = index_of.at(c.id);
-        return calibrate_case(setup.problems[i], *forwards[i], ensemble_threads, setup.section.require_converged);
+        return calibrate_case(setup.problems[i], *forwards[i], ensemble_threads);
       },
       so);
   line.finish();

@@ -1,10 +1,10 @@
 // The shrunk foreign-cohort experiment (experiments/specificity/README.md, "Foreign cohort"): 5
 // healthy and 5 reduced-contractility subjects of configs/data/foreign-cohort (curves made by no
-// BCS code), calibrated with configs/specificity-foreign.yaml. One subject of each group stops at
-// the iteration limit in the full study (healthy-of1, reduced-el3): the exclusion policy must list
-// and drop them, leaving 4 + 4. Reduced contractility and raised filling pressure must then come
-// out in their directions with complete separation, and afterload, which the cohort keeps at the
-// healthy value, must not be called different. About 10 s (10 calibrations).
+// BCS code), calibrated with configs/specificity-foreign.yaml (UT, mode: map). Every one of these
+// ten converges (the one failure of the full study, healthy-el2, is not among them). Reduced
+// contractility and raised filling pressure must come out in their directions with complete
+// separation, and afterload, which the cohort keeps at the healthy value, must not be called
+// different. About 3 s (10 calibrations).
 #include "app/cli.h"
 #include "app/errors.h"
 #include "../test_support.h"
@@ -45,25 +45,19 @@ TEST(SpecificityForeign, ReducedGroupHasLowerContractilityAndUnchangedAfterload)
   const auto j = nlohmann::json::parse(read_file(dir / "r.json"));
   EXPECT_EQ(j["group_a"], "healthy");
   EXPECT_EQ(j["group_b"], "reduced");
-  EXPECT_EQ(j["failed_cases"], (nlohmann::json{"healthy-of1", "reduced-el3"})) << out.str();
+  EXPECT_TRUE(j["failed_cases"].empty()) << out.str();
   for (const auto& c : j["cases"]) {
-    if (c["name"] == "healthy-of1" || c["name"] == "reduced-el3") {
-      EXPECT_NE(c["status"].get<std::string>().find("iteration limit"), std::string::npos) << c["status"];
-      EXPECT_TRUE(c["estimate"]["sigma0"]["value"].is_null() || std::isnan(c["estimate"]["sigma0"]["value"].get<double>()));
-      continue;
-    }
     EXPECT_EQ(c["status"], "ok") << c["name"];
-    EXPECT_LT(c["relative_error_percent"].get<double>(), 0.1) << c["name"];
   }
-  EXPECT_EQ(j["statistics"]["sigma0"]["n_a"], 4);
-  EXPECT_EQ(j["statistics"]["sigma0"]["n_b"], 4);
+  EXPECT_EQ(j["statistics"]["sigma0"]["n_a"], 5);
+  EXPECT_EQ(j["statistics"]["sigma0"]["n_b"], 5);
   const auto& s = j["statistics"];
   EXPECT_DOUBLE_EQ(s["sigma0"]["auc"].get<double>(), 0.0) << out.str();  // every reduced below every healthy
   EXPECT_EQ(s["sigma0"]["direction"], "lower");
   EXPECT_DOUBLE_EQ(s["P_at0"]["auc"].get<double>(), 1.0) << out.str();
   EXPECT_EQ(s["P_at0"]["direction"], "higher");
-  // Exact Mann-Whitney, 4 vs 4, complete separation: 2 / C(8, 4).
-  EXPECT_NEAR(s["sigma0"]["mann_whitney_p"].get<double>(), 2.0 / 70.0, 1e-12);
+  // Exact Mann-Whitney, 5 vs 5, complete separation: 2 / C(10, 5).
+  EXPECT_NEAR(s["sigma0"]["mann_whitney_p"].get<double>(), 2.0 / 252.0, 1e-12);
   const double auc_rd = s["R_d"]["auc"].get<double>();
   EXPECT_GT(auc_rd, 0.2) << out.str();
   EXPECT_LT(auc_rd, 0.8) << out.str();
