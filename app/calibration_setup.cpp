@@ -219,11 +219,47 @@ estimation::UtGlobalStart parse_global_start(const ConfigNode& node) {
   return g;
 }
 
+// calibration.method / reference / least_squares (app/calibration_setup.h); the multi-start screen
+// is the UT's global_start, so both estimators start from the same points.
+void parse_least_squares(const ConfigNode& node, const estimation::UtOptions& ut,
+                         std::optional<std::uint64_t> seed, CalibrationProblem& out) {
+  if (node.has("method")) {
+    out.least_squares_method = node["method"].as_choice({"unscented", "least-squares"}) == "least-squares";
+  }
+  if (node.has("reference")) {
+    out.least_squares_reference = node["reference"].as_choice({"none", "least-squares"}) == "least-squares";
+    if (out.least_squares_reference && out.least_squares_method) {
+      node["reference"].fail("the reference run checks the unscented method; with method: least-squares "
+                             "leave it out");
+    }
+  }
+  estimation::LeastSquaresOptions& o = out.least_squares;
+  const ConfigNode ls = node["least_squares"];
+  if (ls.defined()) {
+    ls.check_keys({"max_iterations", "difference", "relative_step"});
+    o.max_iterations = ls.optional<int>("max_iterations", o.max_iterations);
+    if (ls.has("difference")) {
+      o.difference = *estimation::parse_finite_difference(ls["difference"].as_choice({"central", "forward"}));
+    }
+    o.relative_step = ls.optional<double>("relative_step", o.relative_step);
+  }
+  if (ut.global_start.samples > 0) {
+    o.screen_points = ut.global_start.samples;
+    o.starts = ut.global_start.keep;
+    o.screen_width = ut.global_start.width;
+  }
+  o.seed = seed.value_or(0);
+  if (const std::string problem = o.validate(); !problem.empty()) {
+    (ls.defined() ? ls : node).fail("calibration.least_squares: " + problem);
+  }
+}
+
 estimation::UtOptions parse_ut_options(const ConfigNode& node) {
   estimation::UtOptions o;
   node.check_keys({"sigma_points", "kappa", "alpha", "beta", "mode", "max_iterations", "tolerance",
                    "inflation", "sample_scale", "failure_policy", "shrink_factor", "max_retries",
-                   "max_rejections", "bound_margin", "global_start", "threads"});
+                   "max_rejections", "bound_margin", "global_start", "threads", "method", "reference",
+                   "least_squares"});
   o.mode = estimation::UtMode::kMap;  // the default (docs/estimation.md s.3.2)
   if (node.has("sigma_points")) {
     o.sigma.rule = *estimation::parse_sigma_rule(
@@ -290,6 +326,7 @@ CalibrationProblem parse_calibration_problem(const Config& config,
   out.options = parse_ut_options(cal);
   const std::string problem = out.options.validate(out.prior.size());
   if (!problem.empty()) cal.fail(problem);
+  parse_least_squares(cal, out.options, config.seed, out);
   return out;
 }
 

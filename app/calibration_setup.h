@@ -24,9 +24,15 @@
 //     bound_margin: 1.0e-3       # "stuck at a bound" within this fraction of the prior's distance
 //     global_start: {samples: 32, keep: 3, width: 3}   # optional Sobol' screen, docs s.3.4
 //     failure_policy: shrink-and-retry   # or abort (shrink_factor, max_retries)
+//     method: unscented          # unscented (default) | least-squares: the Ceres MAP solver
+//                                # (estimation/least_squares.h, docs/estimation.md s.11) instead
+//     reference: least-squares   # optional with unscented: the Ceres MAP as a check of the UT
+//     least_squares: {max_iterations: 50, difference: central, relative_step: 1.0e-4}
+//                                # global_start above sets its multi-start screen too
 #pragma once
 
 #include "app/config.h"
+#include "estimation/least_squares.h"
 #include "estimation/ut_calibration.h"
 #include "observers/observer.h"
 
@@ -48,6 +54,9 @@ struct CalibrationProblem {
   std::unique_ptr<observers::Observer> observer;   // same names and order as observations
   estimation::Prior prior;                         // the estimated parameters, in config order
   estimation::UtOptions options;
+  bool least_squares_method = false;               // calibration.method: least-squares
+  bool least_squares_reference = false;            // calibration.reference: least-squares
+  estimation::LeastSquaresOptions least_squares;   // its options (ensemble set by the command)
 };
 
 // Parses `observations:`, `estimate:` and `calibration:` of a config whose simulator section is

@@ -119,7 +119,21 @@ ClinicalIndices clinical_indices(const Eigen::Ref<const Eigen::VectorXd>& volume
     c.esv = volume.minCoeff();
     c.sv = c.edv - c.esv;
     c.ef = c.sv / c.edv;
-    if (pressure.size() == volume.size() && pressure.allFinite()) c.edp = pressure(ed);
+    if (pressure.size() == volume.size() && pressure.allFinite()) {
+      // End-diastole is the largest volume of the filling frames. With noisy frames the overall
+      // maximum can fall in isovolumic contraction, where the volume is the same to within the
+      // noise but the pressure is already rising (an "EDP" of 65 mmHg seen on the foreign bench),
+      // so the frames at or above mid-pressure (contraction, ejection, relaxation) are left out.
+      const double mid = 0.5 * (pressure.minCoeff() + pressure.maxCoeff());
+      double best = -std::numeric_limits<double>::infinity();
+      for (Eigen::Index k = 0; k < volume.size(); ++k) {
+        if (pressure(k) < mid && volume(k) > best) {
+          best = volume(k);
+          ed = k;
+        }
+      }
+      c.edp = pressure(ed);
+    }
   }
   if (pressure.size() > 0 && pressure.allFinite()) c.p_max = pressure.maxCoeff();
   return c;

@@ -613,4 +613,40 @@ LeastSquaresSummary solve_map(const ForwardModel& model, const Prior& prior,
   return summary;
 }
 
+UtSummary as_calibration_summary(const LeastSquaresSummary& m) {
+  UtSummary s;
+  switch (m.termination) {
+    case LsqTermination::kConverged: s.termination = UtTermination::kConverged; break;
+    case LsqTermination::kMaxIterations: s.termination = UtTermination::kMaxIterations; break;
+    case LsqTermination::kNoConvergence: s.termination = UtTermination::kDiverged; break;
+    case LsqTermination::kNonFinite: s.termination = UtTermination::kNonFinite; break;
+    case LsqTermination::kWorseThanPrior: s.termination = UtTermination::kWorseThanPrior; break;
+    case LsqTermination::kAtBound: s.termination = UtTermination::kAtBound; break;
+  }
+  s.message = m.message;
+  s.headline = m.brief_report();
+  s.mode = UtMode::kMap;
+  s.names = m.names;
+  s.observation_names = m.observation_names;
+  s.eta_prior_mean = m.eta_prior_mean;
+  s.eta_prior_std = m.eta_prior_std;
+  s.theta_prior = m.theta_prior;
+  s.eta_mean = m.eta;
+  s.eta_covariance = m.eta_covariance;
+  s.eta_std = m.eta_std;
+  s.theta_of_eta_mean = m.theta;
+  s.theta_sigma_mean = m.theta;  // no sigma points: the point estimate
+  s.theta_std = m.theta_std;
+  s.theta_sigma_std = m.theta_std;
+  s.fit_before = m.fit_prior;
+  s.fit_after = m.fit_estimate;
+  s.metrics_before = m.metrics_prior;
+  s.metrics_after = m.metrics_estimate;
+  s.simulations = m.simulations;
+  s.failures = m.failures;
+  s.objective_prior = m.prior_cost;
+  s.objective = m.cost;
+  return s;
+}
+
 }  // namespace sigmaheart::estimation

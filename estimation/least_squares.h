@@ -158,6 +158,12 @@ LeastSquaresSummary solve_map(const ForwardModel& model, const Prior& prior,
                               const observers::ObservationSet& observations,
                               const LeastSquaresOptions& options = {});
 
+// The MAP summary in the shape the calibration writers take (app/io/calibration_h5.h): the
+// estimate, its Laplace spread (for both theta "means" and stds), the fits, the counts, and the
+// termination mapped to its UtTermination (converged, iteration limit, diverged for Ceres'
+// failure, non-finite, worse than the prior, stuck at a bound); headline = brief_report().
+UtSummary as_calibration_summary(const LeastSquaresSummary& summary);
+
 // Empty when the problem is consistent (sizes, names, Gaussian prior, valid R), else a message.
 std::string validate_map_problem(const ForwardModel& model, const Prior& prior,
                                  const observers::ObservationSet& observations);

@@ -157,6 +157,7 @@ bool UtSummary::ok() const {
 }
 
 std::string UtSummary::brief_report() const {
+  if (!headline.empty()) return headline;
   std::ostringstream s;
   s.precision(4);
   s << "UT calibration (" << to_string(mode) << ", " << to_string(rule) << ", "

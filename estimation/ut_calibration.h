@@ -277,6 +277,10 @@ struct UtSummary {
   double nis_threshold = std::numeric_limits<double>::quiet_NaN();  // kOneShot: chi2 quantile
   std::vector<UtStart> starts;          // global start: every start (empty without one)
 
+  // Set when another estimator reports through this summary (least_squares.h,
+  // as_calibration_summary): brief_report() returns it.
+  std::string headline;
+
   bool ok() const;  // kCompleted or kConverged
   // One line, e.g. "UT calibration (one-shot, simplex, 3 params, 5 obs): completed after 1
   // iteration, 6 runs, 0 failed, 0 policy actions, misfit 12.3 -> 0.41".

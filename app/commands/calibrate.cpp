@@ -8,7 +8,9 @@
 #include "app/errors.h"
 #include "app/io/calibration_h5.h"
 #include "app/progress.h"
+#include "estimation/fit_report.h"
 #include "estimation/forward_model.h"
+#include "estimation/least_squares.h"
 #include "estimation/mpi.h"
 
 #include <spdlog/spdlog.h>
@@ -63,13 +65,36 @@ int run_calibrate(const StudyOptions& o, CommandContext& ctx) {
     throw InputError(config.file.root()["calibration"].location(), invalid);
   }
   if (root) {
-    spdlog::info("calibrating {} parameter(s) of {} against {} observation(s) ({}, {}, {} threads)",
+    spdlog::info("calibrating {} parameter(s) of {} against {} observation(s) ({}, {} threads)",
                  names.size(), simulator->name(), problem.observations.size(),
-                 estimation::to_string(options.mode), estimation::to_string(options.sigma.rule),
+                 problem.least_squares_method ? std::string("MAP least squares, Ceres")
+                                              : std::string(estimation::to_string(options.mode)) + ", " +
+                                                    estimation::to_string(options.sigma.rule),
                  threads);
   }
-  const estimation::UtSummary summary = calibration.run();
+  estimation::LeastSquaresOptions lsq = problem.least_squares;
+  lsq.ensemble = options.ensemble;
+  lsq.ensemble.progress = nullptr;
+  std::optional<estimation::LeastSquaresSummary> map;
+  estimation::UtSummary summary;
+  if (problem.least_squares_method) {
+    map = estimation::solve_map(forward, problem.prior, problem.observations, lsq);
+    summary = estimation::as_calibration_summary(*map);
+    summary.theta_prior_std = problem.prior.prior_theta_std();
+  } else {
+    summary = calibration.run();
+  }
   progress.finish();
+  if (problem.least_squares_reference) {
+    if (root) spdlog::info("reference: the MAP point by least squares (Ceres)");
+    map = estimation::solve_map(forward, problem.prior, problem.observations, lsq);
+  }
+  std::optional<estimation::FitReport> fit_report;
+  if (summary.fit_after && summary.fit_after->status.ok()) {
+    fit_report = estimation::make_fit_report(
+        problem.observations, summary.fit_after->z,
+        estimation::PosteriorSpread{summary.names, summary.eta_covariance, summary.eta_prior_std});
+  }
 
   // Curves at the prior and at the estimate, for the plots.
   const model::RunResult prior_run = simulator->run(forward.full_theta(summary.theta_prior));
@@ -84,6 +109,8 @@ int run_calibrate(const StudyOptions& o, CommandContext& ctx) {
     results.estimated_theta = forward.full_theta(summary.theta_of_eta_mean);
     if (prior_run.status.ok()) results.prior_curves = prior_run.trajectory;
     if (post_run.status.ok()) results.calibrated_curves = post_run.trajectory;
+    if (fit_report) results.fit_report = &*fit_report;
+    if (map) results.map = &*map;
 
     fill_provenance(prov, config, ctx, "calibrate", threads, ranks);
     io::write_calibration_h5(output, results, prov);

@@ -1,4 +1,5 @@
 #include "app/io/calibration_h5.h"
+#include "app/io/fit_report_io.h"
 
 #include "app/io/hdf5_writer.h"
 #include "model/units.h"
@@ -171,6 +172,8 @@ void write_calibration_h5(const std::filesystem::path& path, const CalibrationRe
   h5.set_attribute("/summary", "mean_relative_error_after", summary.metrics_after.mean_relative_error_percent);
   h5.set_attribute("/summary", "rms_normalised_residual_before", summary.metrics_before.rms_normalised_residual);
   h5.set_attribute("/summary", "rms_normalised_residual_after", summary.metrics_after.rms_normalised_residual);
+  if (results.fit_report) write_fit_report_h5(h5, "/fit_report", *results.fit_report);
+  if (results.map) write_least_squares_h5(h5, "/map", *results.map, problem.prior.units());
   prov.end_utc = utc_now();
   write_provenance(h5, prov);
   h5.commit();

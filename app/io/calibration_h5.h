@@ -5,6 +5,8 @@
 #pragma once
 
 #include "app/calibration_setup.h"
+#include "estimation/fit_report.h"
+#include "estimation/least_squares.h"
 #include "app/io/results.h"
 #include "estimation/ut_calibration.h"
 #include "model/simulator.h"
@@ -33,6 +35,10 @@ struct CalibrationResults {
   Eigen::VectorXd estimated_theta;               // full parameter vector at the estimate
   std::optional<model::Trajectory> prior_curves;       // the model at the prior mean
   std::optional<model::Trajectory> calibrated_curves;  // the model at the estimate
+  // How the calibrated curves fit the data (estimation/fit_report.h): /fit_report, "fit_report".
+  const estimation::FitReport* fit_report = nullptr;
+  // The Ceres MAP run, when it was the method or the reference (least_squares.h): /map, "map".
+  const estimation::LeastSquaresSummary* map = nullptr;
 };
 
 // The results file (written atomically; provenance.end_utc is set here).

@@ -1,6 +1,7 @@
 // The JSON summary and the terminal report of `calibrate` (declared in calibration_h5.h).
 #include "app/io/atomic_file.h"
 #include "app/io/calibration_h5.h"
+#include "app/io/fit_report_io.h"
 #include "app/io/display.h"
 
 #include <nlohmann/json.hpp>
@@ -101,6 +102,8 @@ void write_calibration_json(const std::filesystem::path& path, const std::string
   j["mean_relative_error_percent"] = summary.metrics_after.mean_relative_error_percent;
   j["rms_normalised_residual_prior"] = summary.metrics_before.rms_normalised_residual;
   j["rms_normalised_residual"] = summary.metrics_after.rms_normalised_residual;
+  if (results.fit_report) add_fit_report_json(j, *results.fit_report);
+  if (results.map) add_least_squares_json(j, *results.map, units);
   write_text_file(path, [&](std::ostream& f) { f << j.dump(2) << "\n"; });
 }
 
@@ -145,6 +148,15 @@ std::string calibration_report(const CalibrationResults& results) {
     t << "start " << k + 1 << ": objective " << format_number(st.screen_objective, 4) << " -> "
       << format_number(st.objective, 4) << " (" << estimation::to_string(st.termination) << ", "
       << st.iterations << " iterations)\n";
+  }
+  if (results.fit_report) t << "fit: " << results.fit_report->summary << "\n";
+  if (results.map && summary.headline.empty()) {
+    // The reference run: how far the UT estimate is from the MAP point of the same objective.
+    t << "reference: " << results.map->brief_report() << "\n";
+    if (summary.mode == estimation::UtMode::kMap) {
+      t << "UT objective / MAP objective: " << format_number(summary.objective / results.map->cost, 4)
+        << " (1 = the UT reached the MAP point)\n";
+    }
   }
   return t.str();
 }

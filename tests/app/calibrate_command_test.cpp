@@ -129,6 +129,37 @@ struct BadCase {
   std::string words;  // expected words of the message
 };
 
+// method: least-squares (the Ceres MAP solver) recovers the same truth and reports through the
+// same files; reference: least-squares runs it beside the UT, whose objective must then equal the
+// MAP objective (the UT's map mode lands on the MAP point, docs/estimation.md s.3.2) to 1e-3.
+TEST(CalibrateCommand, LeastSquaresMethodAndReferenceReachTheMapPointAndWriteTheFitReport) {
+  const auto dir = scratch_dir();
+  make_observations(dir);
+  const std::string estimate = "  sigma0: {spread: 20 %}\n  P_at0: {spread: 20 %}\n";
+  const auto lsq = write_file(dir / "lsq.yaml", config(estimate, kObservations, "{method: least-squares}"));
+  const CliRun a = cli({"--log-level", "off", "calibrate", lsq.string(), "-o", (dir / "a.h5").string(),
+                        "--summary", (dir / "a.json").string(), "--threads", "2"});
+  ASSERT_EQ(a.code, kExitOk) << a.err;
+  const auto ja = nlohmann::json::parse(read_file(dir / "a.json"));
+  EXPECT_EQ(ja["status"], "converged");
+  EXPECT_NEAR(ja["parameters"]["sigma0"]["value"].get<double>(), 5.3e4, 0.05 * 5.3e4);
+  EXPECT_EQ(ja["map"]["termination"], "converged");
+  EXPECT_EQ(ja["fit_report"]["channels"].size(), 2u);
+  EXPECT_NE(a.out.find("MAP least squares"), std::string::npos) << a.out;
+  EXPECT_NE(read_file(dir / "a.h5").find("fit_report"), std::string::npos);
+
+  const auto ref = write_file(dir / "ref.yaml", config(estimate, kObservations,
+                                                       "{tolerance: 1.0e-4, reference: least-squares}"));
+  const CliRun b = cli({"--log-level", "off", "calibrate", ref.string(), "-o", (dir / "b.h5").string(),
+                        "--summary", (dir / "b.json").string(), "--threads", "2"});
+  ASSERT_EQ(b.code, kExitOk) << b.err;
+  const auto jb = nlohmann::json::parse(read_file(dir / "b.json"));
+  EXPECT_NEAR(jb["objective"].get<double>() / jb["map"]["cost"].get<double>(), 1.0, 1e-3) << b.out;
+  EXPECT_NEAR(jb["parameters"]["sigma0"]["value"].get<double>(), ja["parameters"]["sigma0"]["value"].get<double>(),
+              0.1 * jb["parameters"]["sigma0"]["std"].get<double>());
+  EXPECT_NE(b.out.find("UT objective / MAP objective"), std::string::npos) << b.out;
+}
+
 TEST(CalibrateCommand, BadConfigsGiveLocatedErrorsExitTwoAndKeepTheOldResult) {
   const auto dir = scratch_dir();
   make_observations(dir);
@@ -144,6 +175,9 @@ TEST(CalibrateCommand, BadConfigsGiveLocatedErrorsExitTwoAndKeepTheOldResult) {
       {config("  sigma0: {spread: 20 %}\n", "  file: obs.csv\n  curves: [V_lv]\n"), "", "noise"},
       {config("  sigma0: {spread: 20 %}\n", "  file: obs.csv\n  indices: [EDV, ESVV]\n  noise: {default: 5 %}\n"),
        "cal.yaml:", "ESV"},
+      {config("  sigma0: {spread: 20 %}\n", kObservations, "{method: ceres}"), "cal.yaml:10:23:", "least-squares"},
+      {config("  sigma0: {spread: 20 %}\n", kObservations, "{least_squares: {relative_step: 0.5}}"),
+       "cal.yaml:10:", "relative_step"},
   };
   write_file(dir / "r.h5", "an earlier result");
   for (const auto& c : cases) {

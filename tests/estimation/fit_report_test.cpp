@@ -67,6 +67,13 @@ TEST(FitReport, ClinicalIndicesOfAnAnalyticBeatAreExact) {
   EXPECT_NEAR(ci.p_max, 120 * kMmHg, 1e-9);
   EXPECT_NEAR(ci.edp, 5 * kMmHg, 1e-9);
 
+  // A noisy frame in isovolumic contraction with a volume 1 mL above the end-diastolic one and a
+  // pressure of 65 mmHg: end-diastole stays the filling frame (EDP 5 mmHg), not the volume maximum.
+  Eigen::VectorXd v_noisy = v, p_noisy = p;
+  v_noisy(1) = 121 * kMl;
+  p_noisy(1) = 65 * kMmHg;
+  EXPECT_NEAR(clinical_indices(v_noisy, p_noisy).edp, 5 * kMmHg, 1e-9);
+
   // Fitted curves 10 % larger in volume: errors fitted - observed.
   const auto obs = curves(t, {"V_lv", "P_lv"}, {"m^3", "Pa"}, {v, p}, {2 * kMl, 3 * kMmHg});
   Eigen::VectorXd z = obs.y;
