@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <utility>
 
 namespace sigmaheart::app::io {
 
@@ -138,15 +139,19 @@ void write_roukf_h5(const std::filesystem::path& path, const RoukfResults& resul
   h5.set_attribute("/summary", "termination", estimation::to_string(summary.termination));
   h5.set_attribute("/summary", "message", summary.message);
   h5.set_attribute("/summary", "report", summary.brief_report());
-  h5.set_attribute("/summary", "members", summary.members);
-  h5.set_attribute("/summary", "member_runs", summary.member_runs);
-  h5.set_attribute("/summary", "retries", summary.retries);
-  h5.set_attribute("/summary", "skipped_analyses", summary.skipped_analyses);
-  h5.set_attribute("/summary", "nis_mean", summary.nis_mean);
-  h5.set_attribute("/summary", "nis_band_lower", summary.nis_band_lower);
-  h5.set_attribute("/summary", "nis_band_upper", summary.nis_band_upper);
-  h5.set_attribute("/summary", "wall_seconds", summary.wall_seconds);
-  h5.set_attribute("/summary", "passes", problem.filter.beats);
+  // Counts, then the filter's consistency (normalised innovation squared and its 95 % band).
+  for (const auto& [key, count] : {std::pair<const char*, int>{"members", summary.members},
+                                   {"member_runs", summary.member_runs}, {"retries", summary.retries},
+                                   {"skipped_analyses", summary.skipped_analyses},
+                                   {"passes", problem.filter.beats}}) {
+    h5.set_attribute("/summary", key, count);
+  }
+  for (const auto& [key, value] : {std::pair<const char*, double>{"nis_mean", summary.nis_mean},
+                                   {"nis_band_lower", summary.nis_band_lower},
+                                   {"nis_band_upper", summary.nis_band_upper},
+                                   {"wall_seconds", summary.wall_seconds}}) {
+    h5.set_attribute("/summary", key, value);
+  }
   h5.set_attribute("/summary", "forgetting", problem.filter.forgetting);
   h5.set_attribute("/summary", "r_inflation", problem.r_inflation);
   h5.set_attribute("/summary", "spin_up", problem.spin_up);

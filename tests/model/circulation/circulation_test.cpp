@@ -48,11 +48,7 @@ TEST(Phase, ClosedValvesAreContractionAfterFillingAndRelaxationAfterEjection) {
 }
 
 TEST(AtrialPressure, KicksOnceABeatJustBeforeDepolarisation) {
-  AtrialPressure a;
-  a.P_at0 = 1e3;
-  a.P_at_kick = 500.0;
-  a.kick_duration = 0.1;
-  a.period = 0.8;
+  const AtrialPressure a{.P_at0 = 1e3, .P_at_kick = 500.0, .kick_duration = 0.1, .period = 0.8};
   EXPECT_DOUBLE_EQ(a(0.3), 1e3);
   EXPECT_NEAR(a(0.75), 1.5e3, 1e-9);            // middle of [0.7, 0.8)
   EXPECT_NEAR(a(0.75 + 3 * 0.8), 1.5e3, 1e-6);  // periodic
