@@ -14,6 +14,7 @@ from typing import List
 import numpy as np
 
 from sigmaplot_common import plt, provenance_note, save, strings, title_of, trajectory_curve
+from sigmaplot_discrepancy import plot_discrepancy
 
 PRIOR = dict(color="#7f7f7f", lw=1.4, ls="--", label="prior (defaults)")
 CALIBRATED = dict(color="#d62728", lw=2.0, label="calibrated")
@@ -138,4 +139,7 @@ def plot_calibrate(f, out_dir: str, stem: str) -> List[str]:
     paths = plot_curves(f, out_dir, stem) if "trajectories/observed" in f else []
     if not paths:
         paths = plot_indices(f, out_dir, stem)
-    return paths + plot_parameters(f, out_dir, stem) + plot_residuals(f, out_dir, stem)
+    paths += plot_parameters(f, out_dir, stem) + plot_residuals(f, out_dir, stem)
+    if "fit_report" in f:  # where in the cycle the misfit sits, and what the data did not inform
+        paths += plot_discrepancy(f, out_dir, stem)
+    return paths

@@ -18,6 +18,7 @@ file that carries the group. Exit codes: 0 ok, 2 bad input (missing file or grou
 from __future__ import annotations
 
 import argparse
+import textwrap
 import os
 import sys
 from typing import List
@@ -83,7 +84,7 @@ def plot_curves(f, g, out_dir, stem) -> List[str]:
             d = g["discrepancy"][ch]
             shares = d["share"][()]
             parts = [f"{n} {100 * s:.0f} %" for n, s in zip(strings(d["phase_names"]), shares) if s > 0.005]
-            title += "\n" + ", ".join(parts)
+            title += "".join((",\n" if k % 2 == 0 else ", ") + p for k, p in enumerate(parts))[1:]
         top.set_title(title, fontsize=10)
         colours = [PHASE_COLOURS[int(k)] if has_phases else "#777777" for k in codes]
         bottom.axhspan(-2, 2, color="#eeeeee", zorder=0)
@@ -95,9 +96,11 @@ def plot_curves(f, g, out_dir, stem) -> List[str]:
     axes[0][0].legend(loc="best", fontsize=8)
     if names:
         handles = [plt.Rectangle((0, 0), 1, 1, color=PHASE_COLOURS[k], alpha=0.6) for k in range(len(names))]
-        fig.legend(handles, names, loc="upper right", ncol=len(names), fontsize=8)
-    fig.suptitle(title_of(f, "fit report: residual by cycle phase"), y=1.02)
-    fig.text(0.01, -0.02, text(g.attrs.get("summary", "")), ha="left", va="top", fontsize=8, wrap=True)
+        fig.legend(handles, names, loc="lower center", bbox_to_anchor=(0.5, 0.985), ncol=len(names), fontsize=8,
+                   frameon=False)
+    fig.suptitle(title_of(f, "fit report: residual by cycle phase"), y=1.06)
+    summary = textwrap.fill(text(g.attrs.get("summary", "")), width=int(52 * len(channels)))
+    fig.text(0.01, -0.02, summary, ha="left", va="top", fontsize=8)
     fig.text(0.99, -0.07, provenance_note(f), ha="right", va="top", fontsize=7, color="#777777")
     fig.tight_layout()
     return [save(fig, out_dir, stem, "discrepancy")]
