@@ -1,18 +1,21 @@
-// Small sample (256 sphere, 64 regional points) of the whole-box robustness census (sobol_census.h); the 4096-point version is
-// forward_robustness_slow_test.cpp.
+// The whole-box robustness census (sobol_census.h), built twice (tests/model/lumped/CMakeLists.txt):
+// lumped_forward_robustness_test (suite ForwardRobustness: 256 sphere, 64 regional points) and
+// lumped_forward_robustness_slow_test (suite ForwardRobustnessSlow: 4096 points each).
 #include "tests/model/lumped/sobol_census.h"
 
 namespace sigmaheart::model::lumped {
 namespace {
 
-TEST(ForwardRobustness, SphereGivesABeatAtEvery256SobolPointOfItsBox) {
+TEST(SIGMAHEART_CENSUS_SUITE, SphereGivesABeatAtEverySobolPointOfItsBox) {
   LumpedSphere sim;
-  expect_no_failure(census(sim, 256), "sphere, 256 points");
+  const int n = SIGMAHEART_CENSUS_SPHERE_POINTS;
+  expect_no_failure(census(sim, n), "sphere, " + std::to_string(n) + " points");
 }
 
-TEST(ForwardRobustness, RegionalGivesABeatAtEvery64SobolPointsOfItsBox) {
+TEST(SIGMAHEART_CENSUS_SUITE, RegionalGivesABeatAtEverySobolPointOfItsBox) {
   RegionalVentricle sim(five_patches());
-  expect_no_failure(census(sim, 64), "regional (5 patches), 64 points");
+  const int n = SIGMAHEART_CENSUS_REGIONAL_POINTS;
+  expect_no_failure(census(sim, n), "regional (5 patches), " + std::to_string(n) + " points");
 }
 
 }  // namespace

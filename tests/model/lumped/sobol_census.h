@@ -1,6 +1,6 @@
 #pragma once
 
-// Shared by forward_robustness_test (fast sample) and forward_robustness_slow_test (4096 points).
+// Used by forward_robustness_test.cpp, built at two sizes (256/64 points, and 4096).
 //
 // The forward map does not break: over a Sobol' sample of the WHOLE parameter box (every parameter
 // uniform between its bounds) the lumped sphere and the regional model return a periodic beat.
@@ -21,6 +21,7 @@
 
 #include <chrono>
 #include <cstdlib>
+#include <fstream>
 #include <iostream>
 #include <map>
 #include <string>
@@ -37,8 +38,12 @@ struct Census {
   std::string first_failure;
 };
 
-// Runs `sim` at `n` Sobol' points mapped onto the parameter bounds.
+// Runs `sim` at `n` Sobol' points mapped onto the parameter bounds (SIGMAHEART_CENSUS_POINTS=m
+// runs the first m points instead, for measuring; the test's assertion is unchanged).
+// SIGMAHEART_CENSUS_DUMP=file writes, for each periodic point, its beats, step cuts and every
+// channel at 20 evenly spaced samples of the returned beat (%.17g), to compare two builds.
 inline Census census(Simulator& sim, int n) {
+  if (const char* points = std::getenv("SIGMAHEART_CENSUS_POINTS")) n = std::atoi(points);
   const ParameterSpace& space = sim.parameters();
   SobolSequenceOptions so;
   so.dimension = space.size();
@@ -47,6 +52,9 @@ inline Census census(Simulator& sim, int n) {
   const SobolSequence sobol(so);
   const Eigen::MatrixXd u = sobol.points(0, static_cast<std::uint64_t>(n));
   Census c;
+  std::ofstream dump;
+  if (const char* file = std::getenv("SIGMAHEART_CENSUS_DUMP")) dump.open(file);
+  dump.precision(17);
   const char* only = std::getenv("SIGMAHEART_POINT");
   for (int i = only ? std::atoi(only) : 0; i < (only ? std::atoi(only) + 1 : n); ++i) {
     Eigen::VectorXd theta(space.size());
@@ -68,6 +76,12 @@ inline Census census(Simulator& sim, int n) {
     if (r.status.ok()) {
       ++c.ok;
       EXPECT_TRUE(r.trajectory.values.allFinite()) << "point " << i;
+      if (dump.is_open()) {
+        const Eigen::Index rows = r.trajectory.values.rows();
+        dump << i << " " << r.info.beats << " " << r.info.step_cuts;
+        for (int k = 0; k < 20; ++k) dump << " " << r.trajectory.values.row(k * (rows - 1) / 19);
+        dump << "\n";
+      }
     } else if (r.status.code == StatusCode::kOutOfBounds) {
       ++c.refused;
     } else {
