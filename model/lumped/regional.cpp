@@ -244,7 +244,7 @@ int newton_step(const Model& m, const Layout& l, const Eigen::VectorXd& xo, doub
     for (double cq : cp) {
       if (!(cq > 0.05)) return -1;  // a patch collapsed
     }
-    if (r.allFinite() && r.cwiseAbs().maxCoeff() <= o.newton_tolerance) return it;
+    if (shell::newton_converged(m, h, u, du, r, o.newton_tolerance)) return it;
   }
   return -1;
 }

@@ -12,6 +12,7 @@
 
 #include <Eigen/Core>
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <numbers>
@@ -71,6 +72,29 @@ inline void passive_stress(const Shell& m, double C, double& S, double& dS_dC) {
 inline double cavity_volume(const Shell& m, double y) {
   const double R = m.R0 + y;
   return 4.0 / 3.0 * std::numbers::pi * R * R * R;
+}
+
+// Stopping test of the per-step Newton solves, after the update u += du, on the reduced unknowns
+// u = (v [m/s], P_v [Pa], P_ar [Pa], then dimensionless strains and stretches) and the scaled rows
+// r: converged when max |r_i| <= tol, or when the step is negligible relative to the unknowns,
+// max_i |du_i| / max(|u_i|, typ_i) <= tol (the relative step test of Dennis & Schnabel 1996,
+// Numerical Methods for Unconstrained Optimization and Nonlinear Equations, s.7.2; KINSOL's
+// scsteptol). The step test matters for stiff walls (E_s ~ 6e8 Pa): the balance row then carries
+// terms of ~1e6 kPa whose rounding alone keeps |r| above 1e-10 however exact u is, and steps were
+// cut for nothing. Quadratic convergence makes the error after a step of relative size tol of
+// order tol^2, so runs that met the residual test before change by far less than 1e-9 relative.
+// typ_i, the floors for unknowns that pass through 0: kPref for pressures, 1 for strains, and for
+// v the velocity that moves the cavity volume by kVref over the step h (the cavity row's scale).
+template <class V>
+bool newton_converged(const Shell& m, double h, const V& u, const V& du, const V& r, double tol) {
+  if (!r.allFinite()) return false;
+  if (r.cwiseAbs().maxCoeff() <= tol) return true;
+  const double typ_v = kVref / (h * 4.0 * std::numbers::pi * m.R0 * m.R0);
+  for (Eigen::Index i = 0; i < u.size(); ++i) {
+    const double typ = i == 0 ? typ_v : (i <= 2 ? kPref : 1.0);
+    if (!(std::abs(du(i)) <= tol * std::max(std::abs(u(i)), typ))) return false;
+  }
+  return true;
 }
 
 // Static passive balance (d0/R0) s Sigma_pas(s^2) = P s^2 for y (bisection: robust, one call/run).

@@ -186,7 +186,7 @@ int newton_step(const Model& m, const Vec& xo, double t0, double t1, const Spher
     u += du;
     if (1.0 + (xo(kY) + h * u(0)) / m.R0 <= 0.05) return -1;  // collapsed shell: not physical
     reduced_residual(c, u, r, J, &xn);  // convergence test, and the next Jacobian
-    if (r.allFinite() && r.cwiseAbs().maxCoeff() <= o.newton_tolerance) return it;
+    if (shell::newton_converged(m, h, u, du, r, o.newton_tolerance)) return it;
   }
   return -1;
 }
