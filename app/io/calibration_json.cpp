@@ -136,10 +136,22 @@ std::string calibration_report(const CalibrationResults& results) {
       << "%  " << disp.units[k] << "\n";
   }
   if (m > shown) t << "... (" << m - shown << " more in the results file)\n";
-  t << "mean relative error: " << format_number(summary.metrics_before.mean_relative_error_percent, 3)
-    << " % (prior) -> " << format_number(summary.metrics_after.mean_relative_error_percent, 3)
-    << " % (calibrated)\n"
-    << "RMS residual in noise standard deviations: "
+  if (results.fit_report && !results.fit_report->indices.empty()) {
+    // The clinical indices, not a mean relative error that low diastolic pressures inflate.
+    t << "clinical indices, observed -> calibrated:";
+    for (const auto& ix : results.fit_report->indices) {
+      const DisplayUnit u = quantity_display_unit(ix.name, ix.unit);
+      t << (&ix == &results.fit_report->indices.front() ? " " : ", ") << ix.name << " "
+        << format_number(ix.observed * u.from_si, 3) << " -> " << format_number(ix.fitted * u.from_si, 3) << " "
+        << u.unit;
+    }
+    t << "\n";
+  } else {
+    t << "mean relative error: " << format_number(summary.metrics_before.mean_relative_error_percent, 3)
+      << " % (prior) -> " << format_number(summary.metrics_after.mean_relative_error_percent, 3)
+      << " % (calibrated)\n";
+  }
+  t << "RMS residual in noise standard deviations: "
     << format_number(summary.metrics_before.rms_normalised_residual, 3) << " (prior) -> "
     << format_number(summary.metrics_after.rms_normalised_residual, 3)
     << " (calibrated); 1 = at the noise level\n";
