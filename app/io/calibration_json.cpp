@@ -162,7 +162,7 @@ std::string calibration_report(const CalibrationResults& results) {
       << st.iterations << " iterations)\n";
   }
   if (results.fit_report) t << "fit: " << results.fit_report->summary << "\n";
-  if (results.map && summary.headline.empty()) {
+  if (results.map && results.problem->least_squares_reference) {
     // The reference run: how far the UT estimate is from the MAP point of the same objective.
     t << "reference: " << results.map->brief_report() << "\n";
     if (summary.mode == estimation::UtMode::kMap) {
