@@ -82,6 +82,19 @@ ShootingResult find_periodic_state(const VectorXd& x0, const BeatMap& beat,
   }
   if (!base.status.ok()) return fail(base.status, x);
 
+  // Watchdog (Chamberlain, Powell, Lemarechal & Pedersen 1982, Math Program Stud 16:1; Nocedal &
+  // Wright 2006 s.15.6): a full Newton step that raises |G| is still taken once, and the method
+  // returns to the point before it unless |G| falls below that point's value within kWatch
+  // steps. The beat map has kinks (a valve starts to open) next to nearly neutral modes: from the
+  // flat side of a kink Newton overshoots into the steep side, from which it converges, but a
+  // monotone line search never lets it cross. A step that halves |G| does not count against the
+  // window (the beats are still bounded by max_beats).
+  constexpr int kWatch = 6;
+  VectorXd x_ref;
+  double ref_norm = 0.0, last_norm = 0.0;
+  int watching = 0;  // steps left in the watch window; 0: not watching
+  bool free_step = true;
+
   while (true) {
     // Scales: each entry by its peak over the beat; an entry that is 0 all beat keeps scale 1.
     VectorXd s = peak;
@@ -96,6 +109,20 @@ ShootingResult find_periodic_state(const VectorXd& x0, const BeatMap& beat,
     res.correction = max_abs(r);
     if (res.correction == 0.0) break;  // already exactly periodic (e.g. a state at rest)
     if (res.beats >= o.max_beats) break;
+    if (watching > 0) {
+      const bool fast = r.norm() < 0.5 * last_norm;  // still closing in: the window stays open
+      last_norm = r.norm();
+      if (r.norm() < ref_norm) {
+        watching = 0;
+        free_step = true;
+      } else if (!fast && --watching == 0) {  // the free step did not pay off: back to where it started
+        x = x_ref;
+        base = run(x, true);
+        if (!base.status.ok()) return fail(base.status, x);
+        free_step = false;
+        continue;
+      }
+    }
 
     // Newton step: (I - dF/dx) dz = r in scaled units, dF/dx v by a forward difference.
     const Apply apply = [&](const VectorXd& v, VectorXd& y) {
@@ -118,7 +145,20 @@ ShootingResult find_periodic_state(const VectorXd& x0, const BeatMap& beat,
         BeatOutcome trial = run(xt, true);
         if (!trial.status.ok()) continue;
         const VectorXd rt = (trial.end - xt).cwiseQuotient(s);
-        if (step <= o.tolerance || rt.norm() <= (1.0 - 1e-4 * lambda) * r.norm()) {
+        const bool armijo = rt.norm() <= (1.0 - 1e-4 * lambda) * r.norm();
+        if (!armijo && ls == 0 && free_step && watching == 0 && step > o.tolerance) {
+          x_ref = x;
+          ref_norm = r.norm();
+          last_norm = std::numeric_limits<double>::infinity();
+          watching = kWatch;
+          free_step = false;
+          x = xt;
+          base = std::move(trial);
+          moved = true;
+          break;
+        }
+        if (step <= o.tolerance || armijo) {
+          if (watching == 0) free_step = true;  // a monotone step re-arms the watchdog
           x = xt;
           base = std::move(trial);
           moved = true;
