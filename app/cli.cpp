@@ -170,7 +170,8 @@ void add_study_command(CLI::App& app, CommandContext& ctx, const std::string& na
   sub->add_option("config", opts->config, help.config)->required();
   sub->add_option("-o,--output", opts->output, "Results file (HDF5); default results/<config>-" + name + ".h5");
   sub->add_option("--summary", opts->summary, help.summary);
-  sub->add_option("--threads", opts->threads, help.threads)->check(CLI::PositiveNumber);
+  sub->add_option("--threads", opts->threads, help.threads)
+      ->check(CLI::Range(1, estimation::kMaxThreads));
   add_set_option(*sub, opts->overrides);
   sub->callback([opts, &ctx, run] { ctx.run = [opts, &ctx, run] { return run(*opts, ctx); }; });
 }

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <stdexcept>
 #include <utility>
@@ -278,6 +279,30 @@ std::string ConfigNode::as_choice(const std::vector<std::string>& allowed) const
 
 // ---------------------------------------------------------------------------------------------
 
+namespace {
+// yaml-cpp keeps both pairs of a repeated key and lookups return the first, so a key given twice
+// (an estimate: entry copied and not renamed) was silently half-ignored. Refused at the second.
+void reject_duplicate_keys(const YAML::Node& node, const std::string& file_name) {
+  if (node.IsMap()) {
+    std::map<std::string, int> first_line;
+    for (auto it = node.begin(); it != node.end(); ++it) {
+      if (it->first.IsScalar()) {
+        const std::string key = it->first.Scalar();
+        const auto [at, fresh] = first_line.emplace(key, it->first.Mark().line + 1);
+        if (!fresh) {
+          throw InputError(mark_location(file_name, it->first.Mark()),
+                           "duplicate key '" + key + "' (first at line " +
+                               std::to_string(at->second) + "): each key may appear once");
+        }
+      }
+      reject_duplicate_keys(it->second, file_name);
+    }
+  } else if (node.IsSequence()) {
+    for (const YAML::Node& item : node) reject_duplicate_keys(item, file_name);
+  }
+}
+}  // namespace
+
 ConfigFile ConfigFile::parse(const std::string& text, const std::string& file_name) {
   ConfigFile f;
   f.text_ = text;
@@ -290,6 +315,7 @@ ConfigFile ConfigFile::parse(const std::string& text, const std::string& file_na
   } catch (const YAML::Exception& e) {
     throw InputError(mark_location(file_name, e.mark), "cannot read YAML: " + e.msg);
   }
+  reject_duplicate_keys(f.root_, file_name);
   if (!f.root_.IsDefined() || f.root_.IsNull()) {
     f.root_.reset(YAML::Node(YAML::NodeType::Map));  // an empty file: "missing key" errors follow
   } else if (!f.root_.IsMap()) {
@@ -300,6 +326,10 @@ ConfigFile ConfigFile::parse(const std::string& text, const std::string& file_na
 }
 
 ConfigFile ConfigFile::load(const std::filesystem::path& path) {
+  if (std::error_code ec; std::filesystem::is_directory(path, ec)) {
+    throw InputError(Location{path.string(), 0, 0},
+                     "is a directory; expected a YAML config file (e.g. configs/healthy.yaml)");
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in) {
     std::error_code ec;

@@ -34,6 +34,27 @@ class ConfigNode {
   ConfigNode() = default;
   ConfigNode(YAML::Node node, std::shared_ptr<const detail::ConfigOrigin> origin, std::string path,
              Location fallback);
+  ConfigNode(const ConfigNode&) = default;
+  ConfigNode(ConfigNode&&) = default;
+  // Assignment rebinds this handle to the other node. yaml-cpp's own Node::operator= writes the
+  // other node's value INTO the node this handle refers to, which edited the parsed config in place
+  // (a case list assigned over the `cases:` path; a re-bound `activation:` map).
+  ConfigNode& operator=(const ConfigNode& other) {
+    if (this != &other) {
+      node_.reset(other.node_);
+      origin_ = other.origin_;
+      path_ = other.path_;
+      fallback_ = other.fallback_;
+    }
+    return *this;
+  }
+  ConfigNode& operator=(ConfigNode&& other) noexcept {
+    node_.reset(other.node_);
+    origin_ = std::move(other.origin_);
+    path_ = std::move(other.path_);
+    fallback_ = std::move(other.fallback_);
+    return *this;
+  }
 
   // The value at `key` of a map. A missing key gives an undefined node whose errors point at
   // this node (its parent). Throws InputError when this node is a scalar or sequence.

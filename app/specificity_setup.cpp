@@ -58,17 +58,23 @@ CaseEntry parse_case(const Config& config, const ConfigNode& node, const std::fi
 // `cases:` as a list, or the path of a YAML file whose `cases:` is that list.
 std::vector<CaseEntry> parse_cases(const Config& config) {
   const ConfigNode root = config.file.root();
-  ConfigNode list = root.require_child("cases");
+  const ConfigNode given = root.require_child("cases");
   std::filesystem::path base = std::filesystem::path(config.file.file()).parent_path();
+  // Never assign one ConfigNode to another: yaml-cpp's Node::operator= writes into the node it
+  // refers to, so `list = <the other file's list>` replaced the config's `cases:` path by the list
+  // itself and a second parse of the same config (validate runs two sections that read the cases)
+  // resolved the files against the config's directory.
   std::optional<ConfigFile> listed;  // keeps the other file's tree alive while its nodes are read
-  if (list.is_scalar()) {
-    std::filesystem::path path = list.as<std::string>();
+  std::optional<ConfigNode> from_file;
+  if (given.is_scalar()) {
+    std::filesystem::path path = given.as<std::string>();
     if (path.is_relative()) path = base / path;
-    if (!std::filesystem::exists(path)) list.fail("case list '" + path.string() + "' does not exist");
+    if (!std::filesystem::exists(path)) given.fail("case list '" + path.string() + "' does not exist");
     listed = ConfigFile::load(path);
     base = path.parent_path();
-    list = listed->root().require_child("cases");
+    from_file.emplace(listed->root().require_child("cases"));
   }
+  const ConfigNode& list = from_file ? *from_file : given;
   if (!list.is_sequence() || list.size() == 0) {
     list.fail("expected a list of cases [{name: ..., file: ..., group: ...}, ...] or the path of a "
               "YAML file with such a `cases:` list");

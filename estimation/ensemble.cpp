@@ -20,9 +20,9 @@ std::optional<Backend> parse_backend(const std::string& text) {
 }
 
 std::string EnsembleOptions::validate() const {
-  if (threads < 0) {
+  if (threads < 0 || threads > kMaxThreads) {
     std::ostringstream s;
-    s << "ensemble: threads must be >= 0 (0: all cores), got " << threads;
+    s << "ensemble: threads must lie in [0, " << kMaxThreads << "] (0: all cores), got " << threads;
     return s.str();
   }
   if (backend == Backend::kMpi && !mpi_compiled()) {

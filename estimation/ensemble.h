@@ -52,6 +52,10 @@ enum class Backend { kSerial, kThreads, kMpi };
 const char* to_string(Backend backend);
 std::optional<Backend> parse_backend(const std::string& text);  // "serial", "threads", "mpi"
 
+// The most threads an ensemble starts per rank. Far more than any node has cores; above it the
+// OpenMP runtime fails to create the team (100000 crashed the process) and the request is a typo.
+inline constexpr int kMaxThreads = 1024;
+
 struct EnsembleOptions {
   Backend backend = Backend::kThreads;  // kSerial: one thread per rank
   int threads = 0;  // kThreads and kMpi (threads per rank); 0: all cores (omp_get_max_threads)

@@ -40,6 +40,26 @@ std::string config(const std::string& estimate, const std::string& observations 
          "estimate:\n" + estimate + "calibration: " + calibration + "\n";
 }
 
+TEST(CalibrateCommand, AThreadCountBeyondTheLimitIsBadInputNotACrash) {
+  // --threads 100000 used to crash the process when OpenMP could not create the team.
+  const auto dir = scratch_dir();
+  make_observations(dir);
+  const auto cfg = write_file(dir / "cal.yaml", config("  sigma0: {spread: 20 %}\n"));
+  const CliRun flag = cli({"--log-level", "off", "calibrate", cfg.string(), "-o",
+                           (dir / "r.h5").string(), "--threads", "100000"});
+  EXPECT_EQ(flag.code, kExitBadInput);
+  EXPECT_NE(flag.err.find("--threads: Value 100000 not in range 1 to 1024"), std::string::npos)
+      << flag.err;
+  const auto in_config = write_file(
+      dir / "cal2.yaml",
+      config("  sigma0: {spread: 20 %}\n", kObservations, "{mode: map, threads: 5000}"));
+  const CliRun key = cli({"--log-level", "off", "calibrate", in_config.string(), "-o",
+                          (dir / "r.h5").string()});
+  EXPECT_EQ(key.code, kExitBadInput);
+  EXPECT_NE(key.err.find("threads must lie in [0, 1024]"), std::string::npos) << key.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "r.h5"));
+}
+
 TEST(CalibrateCommand, RecoversAHiddenTruthFromSynthesizedCurves) {
   const auto dir = scratch_dir();
   make_observations(dir);

@@ -90,6 +90,21 @@ TEST(Config, OutOfBoundsValueNamesParameterValueUnitAndBounds) {
             "x.yaml:7:13: parameter 'sigma0' = 3e+09 Pa is outside its bounds [0, 1e+06] Pa");
 }
 
+TEST(Config, ARepeatedKeyIsRefusedAtItsSecondOccurrence) {
+  // yaml-cpp would keep the first and silently ignore the second (issue: a duplicate parameter
+  // under estimate: passed validate).
+  EXPECT_EQ(error_of([] {
+              parse_config(with_line(kHealthy, 7, "    sigma0: 6.0e4\n    sigma0: 7.0e4"), "x.yaml");
+            }),
+            "x.yaml:8:5: duplicate key 'sigma0' (first at line 7): each key may appear once");
+}
+
+TEST(Config, ADirectoryGivenAsTheConfigIsNamedAsSuch) {
+  EXPECT_EQ(error_of([] { load_config(std::string(SIGMAHEART_SOURCE_DIR) + "/configs"); }),
+            std::string(SIGMAHEART_SOURCE_DIR) +
+                "/configs: is a directory; expected a YAML config file (e.g. configs/healthy.yaml)");
+}
+
 TEST(Config, InvalidNumericsPointAtTheField) {
   EXPECT_EQ(error_of([] {
               parse_config(with_line(kHealthy, 5, "  numerics: {dt: 0.5}"), "x.yaml");
