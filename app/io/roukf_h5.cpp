@@ -105,7 +105,10 @@ void write_roukf_h5(const std::filesystem::path& path, const RoukfResults& resul
     }
   }
   h5.write_vector("/steps/time", time, "s");
-  h5.set_attribute("/steps/time", "description", "model time of the frame (start_beats + pass) x period + frame time");
+  h5.set_attribute("/steps/time", "description",
+                   problem.filter.pass_mode == estimation::RoukfPassMode::kSplit
+                       ? "model time of the frame, start_beats x period + frame time (every split pass restarts)"
+                       : "model time of the frame (start_beats + pass) x period + frame time");
   h5.write_ints("/steps/beat", beat);
   h5.write_ints("/steps/frame", frame);
   h5.write_ints("/steps/observed", observed);

@@ -16,6 +16,13 @@
 // K = P_xz (P_zz + R)^-1 (docs/estimation.md s.3), and on a linear-Gaussian model the filter equals the
 // Kalman filter; both are tests. The filter corrects the model state too.
 //
+// Far from the truth with a very informative first frame the one-step regression locks in wrong
+// values (docs/estimation.md s.4.2). RoukfPassMode::kSplit assimilates the frames in passes with
+// R / phi_b, sum phi_b = 1, each pass restarting the members from the initial state (multiple data
+// assimilation, Emerick & Reynolds 2013); `tempering` splits one frame's analysis the same way
+// (Zanetti 2012); `sigma_scale` narrows the points (Julier 2002). All three keep the Kalman filter
+// on linear-Gaussian models (tests).
+//
 // Marchesseau et al. 2013 (Med Image Anal 17:816) use this filter to estimate one contractility
 // per AHA zone from regional volume curves (p = 17, 18 members per step).
 #pragma once
