@@ -586,7 +586,7 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const Prior& 
         for (int a = 0; a < m; ++a) rec.innovation(present[a]) = full.d(a);
         if (!skip_analysis) {
           // Tempered (progressive) analysis, the recursive update of Zanetti 2012 (IEEE TAC
-          // 57:1482, s.III) with the sigma points re-drawn between sub-updates: the frame's
+          // 57:1481) with the sigma points re-drawn between sub-updates: the frame's
           // information is split into fractions phi_1 + ... + phi_K = 1, each at most
           // options.tempering / lambda_max(HL^T R^-1 HL) of the current regression (so no
           // sub-update shrinks the spread by more than sqrt(1 + tempering) in any direction).
@@ -740,9 +740,10 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const Prior& 
     // Consistency with the whole data set: 2 x the MAP objective at the estimate,
     // sum_k r_k^T R^-1 r_k + (eta - eta0)^T P0^-1 (eta - eta0), r_k = y_k - h_k(eta). On a
     // linear-Gaussian model at the exact posterior mean this equals
-    // (y - H eta0)^T (H P0 H^T + R)^-1 (y - H eta0) (Tarantola 2005, Inverse Problem Theory,
-    // s.3.2.3), i.e. the sum of the NIS of one exact pass, chi-square with sum_k m_k degrees of
-    // freedom; summary.nis_mean is it divided by the analysed frames.
+    // (y - H eta0)^T (H P0 H^T + R)^-1 (y - H eta0) (completing the square in the misfit of
+    // Tarantola 2005, s.3.2), which is the sum of the NIS of one exact pass (the innovations
+    // decomposition of the Gaussian likelihood, Schweppe 1965, IEEE Trans Inf Theory 11:61),
+    // chi-square with sum_k m_k degrees of freedom; summary.nis_mean is it divided by the frames.
     const std::string why = whole_data_statistic();
     if (!why.empty()) {
       summary.state = model::State{t_prev, x.head(ny)};

@@ -147,14 +147,15 @@ struct RoukfOptions {
   // sub-updates of the likelihood raised to phi_k (sum 1), each adding at most `tempering` times
   // the current spread's information in any direction (phi_k lambda_max(HL^T R^-1 HL) <=
   // tempering), the sigma points re-drawn at the previous frame and advanced again between
-  // sub-updates (Zanetti 2012, IEEE TAC 57:1482, recursive update filter). 0: one update per
+  // sub-updates (Zanetti 2012, IEEE TAC 57:1481, recursive update filter). 0: one update per
   // frame, the filter as published. Exact (the Kalman filter) on linear-Gaussian models for any
   // value; on a nonlinear model a first, very informative frame is then analysed over a spread
   // that narrows step by step instead of one regression over the whole prior.
   double tempering = 0.0;
   int max_subupdates = 64;  // per frame; the last one takes the rest of the frame's information
   // Scaled sigma points x + sigma_scale L V_i, deviations divided by sigma_scale after the
-  // prediction (the scaling of Julier 2002, Proc. ACC, eq. 8-10, applied to the simplex set):
+  // prediction (the scaling of Julier 2002, "The scaled unscented transformation", Proc. ACC,
+  // applied to the simplex set without a centre point):
   // the same mean and covariance to first order over a narrower neighbourhood; exact on linear
   // models for any value in (0, 1].
   double sigma_scale = 1.0;
