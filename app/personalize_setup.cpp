@@ -193,12 +193,24 @@ void parse_estimate(const Config& config, const ConfigNode& est, PersonalizeProb
 }
 
 void parse_filter(const ConfigNode& f, PersonalizeProblem& out) {
-  f.check_keys({"beats", "forgetting", "r_inflation", "sigma_points", "kappa", "spin_up",
-                "failure_policy", "max_retries", "shrink", "inflation", "threads"});
+  f.check_keys({"beats", "passes", "first_fraction", "pass_growth", "tempering", "sigma_scale",
+                "forgetting", "r_inflation", "sigma_points", "kappa", "spin_up", "failure_policy",
+                "max_retries", "shrink", "inflation", "threads"});
   estimation::RoukfOptions& o = out.filter;
   o.beats = f.optional<int>("beats", 1);
   if (o.beats < 1) f["beats"].fail("expected an integer >= 1");
   o.period = out.period;
+  if (f.has("passes")) {
+    o.pass_mode = *estimation::parse_roukf_pass_mode(f["passes"].as_choice({"repeat", "split"}));
+  }
+  o.first_fraction = f.optional<double>("first_fraction", o.first_fraction);
+  if (!(o.first_fraction > 0 && o.first_fraction <= 1)) f["first_fraction"].fail("expected a number in (0, 1]");
+  o.pass_growth = f.optional<double>("pass_growth", o.pass_growth);
+  if (!(o.pass_growth > 0)) f["pass_growth"].fail("expected a positive number");
+  o.tempering = f.optional<double>("tempering", o.tempering);
+  if (!(o.tempering >= 0)) f["tempering"].fail("expected a number >= 0 (0: off)");
+  o.sigma_scale = f.optional<double>("sigma_scale", o.sigma_scale);
+  if (!(o.sigma_scale > 0 && o.sigma_scale <= 1)) f["sigma_scale"].fail("expected a number in (0, 1]");
   o.forgetting = f.optional<double>("forgetting", o.forgetting);
   if (!(o.forgetting > 0 && o.forgetting <= 1)) f["forgetting"].fail("expected a number in (0, 1]");
   out.r_inflation = f.optional<double>("r_inflation", 1.0);

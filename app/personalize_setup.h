@@ -13,9 +13,14 @@
 //       sigma0: {segments: all, prior: 5.3e4, spread: 50 %, transform: log}
 //       R_p: {spread: 20 %}      # a global parameter (no segments:)
 //     filter:
-//       beats: 4                 # passes over the measured beat
-//       forgetting: 0.9          # fading memory per frame, (0, 1]
-//       r_inflation: 4           # the filter's R = (r_inflation x noise)^2
+//       beats: 16                # passes over the measured beat (split: at most)
+//       passes: split            # split (R / phi per pass, sum phi = 1) | repeat (data re-used)
+//       first_fraction: 1.0e-3   # split: phi of the first pass
+//       pass_growth: 1           # split: information a pass may add, relative to the spread
+//       tempering: 0             # > 0: sub-updates per frame (RoukfOptions::tempering)
+//       sigma_scale: 1           # scaled sigma points, (0, 1]
+//       forgetting: 1            # fading memory per frame, (0, 1]
+//       r_inflation: 1           # the filter's R = (r_inflation x noise)^2
 //       sigma_points: simplex    # simplex | canonical | star
 //       spin_up: per-member      # per-member | common (initial state of the first prediction)
 //       failure_policy: retry-then-skip   # retry-then-skip | skip | abort

@@ -105,7 +105,10 @@ void write_roukf_h5(const std::filesystem::path& path, const RoukfResults& resul
     }
   }
   h5.write_vector("/steps/time", time, "s");
-  h5.set_attribute("/steps/time", "description", "model time of the frame (start_beats + pass) x period + frame time");
+  h5.set_attribute("/steps/time", "description",
+                   problem.filter.pass_mode == estimation::RoukfPassMode::kSplit
+                       ? "model time of the frame, start_beats x period + frame time (every split pass restarts)"
+                       : "model time of the frame (start_beats + pass) x period + frame time");
   h5.write_ints("/steps/beat", beat);
   h5.write_ints("/steps/frame", frame);
   h5.write_ints("/steps/observed", observed);
@@ -143,7 +146,8 @@ void write_roukf_h5(const std::filesystem::path& path, const RoukfResults& resul
   for (const auto& [key, count] : {std::pair<const char*, int>{"members", summary.members},
                                    {"member_runs", summary.member_runs}, {"retries", summary.retries},
                                    {"skipped_analyses", summary.skipped_analyses},
-                                   {"passes", problem.filter.beats}}) {
+                                   {"passes", summary.pass_fractions.empty() ? problem.filter.beats
+                                                       : static_cast<int>(summary.pass_fractions.size())}}) {
     h5.set_attribute("/summary", key, count);
   }
   for (const auto& [key, value] : {std::pair<const char*, double>{"nis_mean", summary.nis_mean},
@@ -152,6 +156,8 @@ void write_roukf_h5(const std::filesystem::path& path, const RoukfResults& resul
                                    {"wall_seconds", summary.wall_seconds}}) {
     h5.set_attribute("/summary", key, value);
   }
+  h5.set_attribute("/summary", "pass_mode", std::string(estimation::to_string(problem.filter.pass_mode)));
+  h5.set_attribute("/summary", "nis_source", summary.nis_source);
   h5.set_attribute("/summary", "forgetting", problem.filter.forgetting);
   h5.set_attribute("/summary", "r_inflation", problem.r_inflation);
   h5.set_attribute("/summary", "spin_up", problem.spin_up);

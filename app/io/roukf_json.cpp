@@ -37,7 +37,10 @@ void write_roukf_json(const std::filesystem::path& path, const std::string& name
   j["termination"] = estimation::to_string(summary.termination);
   j["message"] = summary.message;
   j["steps"] = summary.steps.size();
-  j["passes"] = problem.filter.beats;
+  j["passes"] = summary.pass_fractions.empty() ? problem.filter.beats
+                                               : static_cast<int>(summary.pass_fractions.size());
+  j["pass_mode"] = estimation::to_string(problem.filter.pass_mode);
+  if (!summary.pass_fractions.empty()) j["pass_fractions"] = summary.pass_fractions;
   j["members"] = summary.members;
   j["member_runs"] = summary.member_runs;
   j["retries"] = summary.retries;
@@ -46,6 +49,7 @@ void write_roukf_json(const std::filesystem::path& path, const std::string& name
   j["nis_mean"] = summary.nis_mean;
   j["nis_band_95"] = {summary.nis_band_lower, summary.nis_band_upper};
   j["nis_frames"] = summary.nis_frames;
+  j["nis_source"] = summary.nis_source;
   j["threads"] = results.threads;
   j["wall_seconds"] = summary.wall_seconds;
   for (size_t k = 0; k < summary.parameter_names.size(); ++k) {

@@ -37,9 +37,9 @@ model::State periodic_state(model::lumped::RegionalVentricle& sim, const Eigen::
 
 std::string RegionalTwinOptions::validate() const {
   if (const std::string e = model.validate(); !e.empty()) return "model: " + e;
-  if (model.patches() != 17) return "the twin experiment needs the 17 AHA segments";
+  const int n = model.patches();
   for (int s : infarct_segments) {
-    if (s < 1 || s > 17) return "infarct_segments must lie in 1..17";
+    if (s < 1 || s > n) return "infarct_segments must lie in 1.." + std::to_string(n);
   }
   if (!(infarct_fraction > 0.0)) return "infarct_fraction must be positive";
   if (frames_per_beat < 2) return "frames_per_beat must be >= 2";
@@ -61,9 +61,10 @@ RegionalTwin make_regional_twin(const model::lumped::RegionalVentricle& model,
   const Eigen::VectorXd nominal = space.nominal();
   const std::optional<int> period_index = space.find("period");
   const std::vector<int> sigma0 = space.regional("contractility");
-  if (!period_index || sigma0.size() != 17) {
-    throw std::invalid_argument("regional twin: the model needs a 'period' parameter and 17 "
-                                "'contractility' parameters (tags)");
+  const int n = sim.options().patches();
+  if (!period_index || static_cast<int>(sigma0.size()) != n) {
+    throw std::invalid_argument("regional twin: the model needs a 'period' parameter and one "
+                                "'contractility' parameter per patch (tags)");
   }
   const double period = nominal(*period_index);
 
@@ -71,16 +72,16 @@ RegionalTwin make_regional_twin(const model::lumped::RegionalVentricle& model,
   twin.nominal_sigma0 = nominal(sigma0.front());
   twin.truth_theta = nominal;
   for (int s : o.infarct_segments) twin.truth_theta(sigma0[static_cast<size_t>(s - 1)]) *= o.infarct_fraction;
-  twin.truth_sigma0.resize(17);
-  for (int s = 1; s <= 17; ++s) twin.truth_sigma0(s - 1) = twin.truth_theta(sigma0[static_cast<size_t>(s - 1)]);
+  twin.truth_sigma0.resize(n);
+  for (int s = 1; s <= n; ++s) twin.truth_sigma0(s - 1) = twin.truth_theta(sigma0[static_cast<size_t>(s - 1)]);
 
   // Truth: periodic beat, regional volumes at the frames, Gaussian noise.
   twin.truth_periodic = periodic_state(sim, twin.truth_theta, o.warmup_beats, period, "truth");
   const auto channels = sim.channels();
-  std::vector<int> seg_channels(17, -1);
+  std::vector<int> seg_channels(static_cast<size_t>(n), -1);
   for (size_t c = 0; c < channels.size(); ++c) {
     const int s = channels[c].segment;
-    if (channels[c].family == "regional_volume" && s >= 1 && s <= 17) seg_channels[static_cast<size_t>(s - 1)] = static_cast<int>(c);
+    if (channels[c].family == "regional_volume" && s >= 1 && s <= n) seg_channels[static_cast<size_t>(s - 1)] = static_cast<int>(c);
   }
   for (int c : seg_channels) {
     if (c < 0) throw std::invalid_argument("regional twin: the model lacks a 'regional_volume' channel");
@@ -88,7 +89,7 @@ RegionalTwin make_regional_twin(const model::lumped::RegionalVentricle& model,
   }
   const int F = o.frames_per_beat;
   twin.data.times.resize(F);
-  twin.data.values.resize(F, 17);
+  twin.data.values.resize(F, n);
   Normal normal(o.seed);
   model::State s = twin.truth_periodic;
   for (int k = 0; k < F; ++k) {
@@ -96,7 +97,7 @@ RegionalTwin make_regional_twin(const model::lumped::RegionalVentricle& model,
     const model::Status st = sim.advance(s, twin.truth_theta, twin.data.times(k));
     if (!st.ok()) throw std::runtime_error("regional twin: the truth failed: " + st.message);
     const Eigen::VectorXd z = sim.sample(s, twin.truth_theta);
-    for (int c = 0; c < 17; ++c) twin.data.values(k, c) = z(seg_channels[static_cast<size_t>(c)]) + o.noise_std * normal();
+    for (int c = 0; c < n; ++c) twin.data.values(k, c) = z(seg_channels[static_cast<size_t>(c)]) + o.noise_std * normal();
   }
 
   // Filter: uniform prior contractility, log transform. Every member starts from the model's
@@ -110,8 +111,12 @@ RegionalTwin make_regional_twin(const model::lumped::RegionalVentricle& model,
         Transform{TransformKind::kLog, twin.nominal_sigma0}, 0.0));
   }
   f.truth = twin.truth_sigma0;
-  f.R = Eigen::MatrixXd::Identity(17, 17) * std::pow(o.r_factor * o.noise_std, 2);
+  f.R = Eigen::MatrixXd::Identity(n, n) * std::pow(o.r_factor * o.noise_std, 2);
   f.forgetting = o.forgetting;
+  f.tempering = o.tempering;
+  f.sigma_scale = o.sigma_scale;
+  f.pass_mode = o.pass_mode;
+  f.first_fraction = o.first_fraction;
   f.beats = o.beats;
   f.period = period;
   f.base_theta = nominal;

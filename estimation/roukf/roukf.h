@@ -16,6 +16,13 @@
 // K = P_xz (P_zz + R)^-1 (docs/estimation.md s.3), and on a linear-Gaussian model the filter equals the
 // Kalman filter; both are tests. The filter corrects the model state too.
 //
+// Far from the truth with a very informative first frame the one-step regression locks in wrong
+// values (docs/estimation.md s.4.2). RoukfPassMode::kSplit assimilates the frames in passes with
+// R / phi_b, sum phi_b = 1, each pass restarting the members from the initial state (multiple data
+// assimilation, Emerick & Reynolds 2013); `tempering` splits one frame's analysis the same way
+// (Zanetti 2012); `sigma_scale` narrows the points (Julier 2002). All three keep the Kalman filter
+// on linear-Gaussian models (tests).
+//
 // Marchesseau et al. 2013 (Med Image Anal 17:816) use this filter to estimate one contractility
 // per AHA zone from regional volume curves (p = 17, 18 members per step).
 #pragma once
@@ -62,6 +69,22 @@ const char* to_string(RoukfFailurePolicy policy);
 std::optional<RoukfFailurePolicy> parse_roukf_failure_policy(const std::string& text);
 // "retry-then-skip", "skip", "abort"
 
+// How repeated passes over the data count them (docs/estimation.md s.4.2).
+enum class RoukfPassMode {
+  // Pass b continues in time (times + b period) with the full R: the same data count `beats`
+  // times, so the posterior spread is too narrow by about sqrt(beats) (Marchesseau et al. 2013).
+  kRepeat,
+  // Multiple data assimilation (Emerick & Reynolds 2013, Comput Geosci 55:3): every pass restarts
+  // from the initial state with the current parameter spread and assimilates the frames with
+  // R / phi_b, phi_1 = first_fraction, later phi_b chosen from the information the previous pass
+  // added (pass_growth), sum phi_b = 1 (the last allowed pass takes the rest). The likelihoods
+  // raised to phi_b multiply to the likelihood once: on a linear-Gaussian model the result is the
+  // one-pass Kalman filter's. `beats` is the largest number of passes.
+  kSplit,
+};
+const char* to_string(RoukfPassMode mode);
+std::optional<RoukfPassMode> parse_roukf_pass_mode(const std::string& text);  // "repeat", "split"
+
 struct RoukfAction {
   int member = -1;           // -1: the whole step
   std::string what;          // "retried with refined step (level 1)", "shrunk spread", ...
@@ -77,6 +100,7 @@ struct RoukfStep {
   double time = 0.0;      // [s]
   int observed = 0;       // channels used in the analysis (0: prediction only)
   bool analysis_skipped = false;  // data present but not used (failure policy)
+  int subupdates = 0;     // tempered sub-updates of the analysis (1: one update; 0: none)
   Eigen::VectorXd eta;        // analysed mean
   Eigen::VectorXd eta_std;    // sqrt(diag P_eta)
   // theta = T(eta) (the median of theta under a Gaussian eta; not the mean of theta) and the
@@ -100,7 +124,10 @@ struct RoukfOptions {
   // The data are assimilated `beats` times: pass b uses times + b * period (period > 0 when
   // beats > 1). Mirrors repeating one measured, periodic beat as Marchesseau et al. 2013 do.
   int beats = 1;
-  double period = 0.0;  // [s]
+  double period = 0.0;  // [s], kRepeat
+  RoukfPassMode pass_mode = RoukfPassMode::kRepeat;
+  double first_fraction = 1e-3;  // kSplit: phi_1, in (0, 1]
+  double pass_growth = 1.0;      // kSplit: information a pass may add, relative to the spread
   // Full parameter vector for the parameters that are not estimated; empty: the nominal values.
   Eigen::VectorXd base_theta;
   // Initial model state; empty: simulator.initial_state(theta at the prior mean).
@@ -116,6 +143,22 @@ struct RoukfOptions {
   // over-confident when one measured beat is assimilated again and again (the same data then
   // count once per pass). The memory is about 1/(1 - forgetting) frames.
   double forgetting = 1.0;
+  // Tempered analysis (docs/estimation.md s.4.2): each frame's information is assimilated in
+  // sub-updates of the likelihood raised to phi_k (sum 1), each adding at most `tempering` times
+  // the current spread's information in any direction (phi_k lambda_max(HL^T R^-1 HL) <=
+  // tempering), the sigma points re-drawn at the previous frame and advanced again between
+  // sub-updates (Zanetti 2012, IEEE TAC 57:1481, recursive update filter). 0: one update per
+  // frame, the filter as published. Exact (the Kalman filter) on linear-Gaussian models for any
+  // value; on a nonlinear model a first, very informative frame is then analysed over a spread
+  // that narrows step by step instead of one regression over the whole prior.
+  double tempering = 0.0;
+  int max_subupdates = 64;  // per frame; the last one takes the rest of the frame's information
+  // Scaled sigma points x + sigma_scale L V_i, deviations divided by sigma_scale after the
+  // prediction (the scaling of Julier 2002, "The scaled unscented transformation", Proc. ACC,
+  // applied to the simplex set without a centre point):
+  // the same mean and covariance to first order over a narrower neighbourhood; exact on linear
+  // models for any value in (0, 1].
+  double sigma_scale = 1.0;
   SigmaRule sigma_rule = SigmaRule::kSimplex;  // a rule with equal mean and covariance weights
   double star_kappa = 0.5;                     // kStar only
   EnsembleOptions ensemble;
@@ -173,6 +216,7 @@ struct RoukfSummary {
   int member_runs = 0;
   int retries = 0;
   int skipped_analyses = 0;
+  int subupdates = 0;              // tempered sub-updates over all analysed frames
   // Filter consistency: the NIS averaged over the analysed frames and its 95 % band. With a
   // consistent filter the sum of the NIS over frames is chi-square with nis_dof = sum of the
   // observed channel counts degrees of freedom (Bar-Shalom, Li & Kirubarajan 2001, Estimation with
@@ -182,6 +226,14 @@ struct RoukfSummary {
   int nis_frames = 0;
   int nis_dof = 0;
   double nis_band_lower = 0.0, nis_band_upper = 0.0;
+  // What the NIS above is: "sequential innovations" (kRepeat: the steps' NIS) or, for kSplit,
+  // "whole data at the estimate (2 x MAP objective)": map_statistic = sum_k r_k^T R^-1 r_k +
+  // (eta - eta0)^T P0^-1 (eta - eta0) from one run at the estimate, which on a linear-Gaussian
+  // model equals the sum of the NIS of one exact pass (same chi-square band).
+  std::string nis_source;
+  double map_statistic = 0.0;
+  int map_dof = 0, map_frames = 0;
+  std::vector<double> pass_fractions;  // kSplit: phi_b of every pass run
   double wall_seconds = 0.0;
 
   bool ok() const { return termination == RoukfTermination::kCompleted; }

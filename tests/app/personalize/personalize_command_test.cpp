@@ -61,6 +61,25 @@ TEST(PersonalizeCommand, ASegmentOutsideTheSeventeenIsReportedAtItsLineAndColumn
   EXPECT_FALSE(std::filesystem::exists(dir / "x.h5"));
 }
 
+// The split-pass keys of filter: (docs/estimation.md s.4.2) are checked where they stand.
+TEST(PersonalizeCommand, BadSplitPassSettingsAreReportedAtTheirLineAndColumn) {
+  const auto dir = scratch_dir();
+  const std::string estimate = "sigma0: {segments: all, spread: 50 %}";
+  for (const auto& [filter, what] :
+       {std::pair<std::string, std::string>{"passes: twice", "expected one of"},
+        {"passes: split, first_fraction: 0", "expected a number in (0, 1]"},
+        {"passes: split, pass_growth: -1", "expected a positive number"},
+        {"sigma_scale: 1.5", "expected a number in (0, 1]"},
+        {"tempering: -0.5", "expected a number >= 0"}}) {
+    const auto cfg = write_file(dir / "bad.yaml", config_with(estimate, filter));
+    const CliRun r = cli({"personalize", cfg.string(), "-o", (dir / "x.h5").string()});
+    EXPECT_EQ(r.code, 2) << filter;
+    EXPECT_NE(r.err.find("bad.yaml:12:"), std::string::npos) << filter << ": " << r.err;
+    EXPECT_NE(r.err.find(what), std::string::npos) << filter << ": " << r.err;
+    EXPECT_FALSE(std::filesystem::exists(dir / "x.h5"));
+  }
+}
+
 TEST(PersonalizeCommand, AnUnknownFamilyGetsADidYouMean) {
   const auto dir = scratch_dir();
   const auto cfg = write_file(dir / "bad.yaml", config_with("sigma: {spread: 50 %}"));

@@ -333,6 +333,80 @@ TEST(Roukf, PerMemberInitialStatesCarryTheInitialStateParameterCorrelation) {
   }
 }
 
+// A linear model whose initial state moves with theta (every member starts from its own).
+LinearSimulator correlated_start() {
+  LinearSimulator sim;
+  sim.G << 0.5, 0.0,  //
+      0.0, -0.3,      //
+      0.2, 0.1;
+  return sim;
+}
+
+// Tempered sub-updates (Zanetti 2012) and scaled points are exact on a linear-Gaussian model:
+// every step holds the Kalman filter's state and covariance, however the frame is split.
+TEST(Roukf, TemperedSubUpdatesAndScaledPointsEqualTheKalmanFilter) {
+  const LinearSimulator sim = correlated_start();
+  const RoukfData data = make_data(sim, 8);
+  RoukfOptions o = linear_options();
+  o.initial_state_per_member = true;
+  o.tempering = 0.3;
+  o.sigma_scale = 0.2;
+  const RoukfSummary s = run_roukf(sim, linear_prior(), data, o);
+  ASSERT_TRUE(s.ok()) << s.message;
+  const auto kf = kalman(sim, data, o);
+  for (size_t k = 0; k < kf.size(); ++k) expect_equals_kalman(s.steps[k], kf[k], k);
+  // The first frames were split (information 0.3 per sub-update at most), later ones less.
+  EXPECT_GE(s.steps[0].subupdates, 3);
+  EXPECT_GT(s.subupdates, static_cast<int>(kf.size()));
+  EXPECT_EQ(s.member_runs, (s.subupdates) * s.members);
+  // The NIS is the one-pass filter's (first regression, whole frame).
+  const RoukfSummary plain = run_roukf(sim, linear_prior(), data, [&] {
+    RoukfOptions p = linear_options();
+    p.initial_state_per_member = true;
+    return p;
+  }());
+  EXPECT_NEAR(s.nis_mean, plain.nis_mean, 1e-9 * plain.nis_mean);
+}
+
+// Split passes (multiple data assimilation, Emerick & Reynolds 2013): the frames assimilated in
+// several passes with R / phi_b, sum phi_b = 1, end at the one-pass Kalman filter's posterior, and
+// the whole-data statistic equals the sum of that filter's NIS.
+TEST(Roukf, SplitPassesEndAtTheOnePassKalmanPosterior) {
+  const LinearSimulator sim = correlated_start();
+  const RoukfData data = make_data(sim, 8);
+  RoukfOptions o = linear_options();
+  o.initial_state_per_member = true;
+  o.pass_mode = RoukfPassMode::kSplit;
+  o.beats = 12;
+  o.first_fraction = 0.01;
+  const RoukfSummary s = run_roukf(sim, linear_prior(), data, o);
+  ASSERT_TRUE(s.ok()) << s.message;
+  const auto kf = kalman(sim, data, o);
+  expect_equals_kalman(s.steps.back(), kf.back(), s.steps.size() - 1);
+  double sum = 0.0;
+  for (double f : s.pass_fractions) sum += f;
+  EXPECT_NEAR(sum, 1.0, 1e-12);
+  EXPECT_GE(s.pass_fractions.size(), 4u);
+  EXPECT_LT(s.pass_fractions.size(), 12u);  // finished before the last allowed pass
+  // The fractions grow with the information gathered (all but the last, which takes the rest).
+  for (size_t b = 1; b + 1 < s.pass_fractions.size(); ++b) {
+    EXPECT_GT(s.pass_fractions[b], s.pass_fractions[b - 1] * 0.999) << "pass " << b + 1;
+  }
+  RoukfOptions one = linear_options();
+  one.initial_state_per_member = true;
+  const RoukfSummary plain = run_roukf(sim, linear_prior(), data, one);
+  ASSERT_EQ(s.nis_frames, plain.nis_frames);
+  EXPECT_NEAR(s.nis_mean, plain.nis_mean, 1e-9 * plain.nis_mean);
+  EXPECT_EQ(s.nis_source, "whole data at the estimate (2 x MAP objective)");
+  // With too few passes allowed, the last takes the rest: still the same posterior.
+  o.beats = 2;
+  const RoukfSummary two = run_roukf(sim, linear_prior(), data, o);
+  ASSERT_TRUE(two.ok()) << two.message;
+  ASSERT_EQ(two.pass_fractions.size(), 2u);
+  EXPECT_NEAR(two.pass_fractions[1], 0.99, 1e-12);
+  expect_equals_kalman(two.steps.back(), kf.back(), two.steps.size() - 1);
+}
+
 TEST(Roukf, UIsResetToIdentityAfterAPredictionWithoutData) {
   LinearSimulator sim;
   RoukfData data = make_data(sim, 4);
