@@ -166,26 +166,6 @@ void parse_inline_observations(const ConfigNode& obs,
   }
 }
 
-// Bounds are always respected (docs/estimation.md s.1.1): a `log` prior on a parameter whose
-// bounds the log's range (0, inf) exceeds is given the bounded transform logit on
-// [max(lower, 0), upper], which is a log transform of theta - lower well inside the bounds; the
-// spread is converted again at the prior mean, so `30 %` keeps its meaning there.
-estimation::PriorParameter bounded_by_the_model(estimation::PriorParameter c, const model::Parameter& p) {
-  if (c.transform.kind != estimation::TransformKind::kLog) return c;
-  const double lower = std::max(p.lower, 0.0);
-  if (!std::isfinite(p.upper) && lower == 0.0) return c;
-  if (!std::isfinite(p.upper)) return c;  // lower > 0 without an upper bound: Prior::validate reports it
-  estimation::Transform t;
-  t.kind = estimation::TransformKind::kLogit;
-  t.lower = lower;
-  t.upper = p.upper;
-  const double theta0 = c.to_theta(c.mean_eta);
-  // The std of theta at the prior mean, kept: std_eta' = std_eta T_log'(eta0) / T_logit'(eta0').
-  const double theta_std = c.std_eta * c.transform.dtheta_deta(c.mean_eta);
-  return estimation::PriorParameter::gaussian(c.name, c.unit, theta0, theta_std,
-                                              estimation::SpreadKind::kAbsolute, t, t.lower, t.upper);
-}
-
 estimation::PriorParameter parse_estimated(const Config& config, const std::string& name,
                                            const ConfigNode& node) {
   const auto& space = config.simulator.parameters;
@@ -290,6 +270,26 @@ estimation::UtOptions parse_ut_options(const ConfigNode& node) {
 }
 
 }  // namespace
+
+// Bounds are always respected (docs/estimation.md s.1.1): a `log` prior on a parameter whose
+// bounds the log's range (0, inf) exceeds is given the bounded transform logit on
+// [max(lower, 0), upper], which is a log transform of theta - lower well inside the bounds; the
+// spread is converted again at the prior mean, so `30 %` keeps its meaning there.
+estimation::PriorParameter bounded_by_the_model(estimation::PriorParameter c, const model::Parameter& p) {
+  if (c.transform.kind != estimation::TransformKind::kLog) return c;
+  const double lower = std::max(p.lower, 0.0);
+  if (!std::isfinite(p.upper) && lower == 0.0) return c;
+  if (!std::isfinite(p.upper)) return c;  // lower > 0 without an upper bound: Prior::validate reports it
+  estimation::Transform t;
+  t.kind = estimation::TransformKind::kLogit;
+  t.lower = lower;
+  t.upper = p.upper;
+  const double theta0 = c.to_theta(c.mean_eta);
+  // The std of theta at the prior mean, kept: std_eta' = std_eta T_log'(eta0) / T_logit'(eta0').
+  const double theta_std = c.std_eta * c.transform.dtheta_deta(c.mean_eta);
+  return estimation::PriorParameter::gaussian(c.name, c.unit, theta0, theta_std,
+                                              estimation::SpreadKind::kAbsolute, t, t.lower, t.upper);
+}
 
 CalibrationProblem parse_calibration_problem(const Config& config,
                                              const std::filesystem::path& observation_file) {

@@ -66,6 +66,11 @@ struct CalibrationProblem {
 CalibrationProblem parse_calibration_problem(const Config& config,
                                              const std::filesystem::path& observation_file = {});
 
+// A `log` prior on a parameter with a finite upper bound becomes logit on the model's bounds, so
+// that no member and no estimate leaves them (docs/estimation.md s.1.1). Used by calibrate and
+// personalize.
+estimation::PriorParameter bounded_by_the_model(estimation::PriorParameter c, const model::Parameter& p);
+
 // One Gaussian prior parameter from {prior, spread, transform, bounds} with the conventions above:
 // prior defaults to the parameter's nominal value; spread "30 %" (relative), "2e4 Pa" (absolute,
 // any unit of the parameter's dimension) or "0.3 eta"; transform log (default), logit (bounds

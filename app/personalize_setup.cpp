@@ -165,7 +165,7 @@ void parse_estimate(const Config& config, const ConfigNode& est, PersonalizeProb
       for (int i : members) available.push_back(space[i].segment);
       for (int s : parse_segments(node["segments"], available)) {
         const int idx = *space.find(space[members.front()].family, s);
-        out.prior.parameters.push_back(parse_estimated_parameter(space[idx], node));
+        out.prior.parameters.push_back(bounded_by_the_model(parse_estimated_parameter(space[idx], node), space[idx]));
         out.segments.push_back(s);
         out.families.push_back(key);
       }
@@ -178,7 +178,8 @@ void parse_estimate(const Config& config, const ConfigNode& est, PersonalizeProb
                              (guess.empty() ? "" : " (did you mean '" + guess + "'?)") +
                              "; per-segment families take 'segments:'");
       }
-      out.prior.parameters.push_back(parse_estimated_parameter(space[*idx], node));
+      out.prior.parameters.push_back(
+          bounded_by_the_model(parse_estimated_parameter(space[*idx], node), space[*idx]));
       out.segments.push_back(0);
       out.families.push_back(key);
     }
