@@ -142,6 +142,11 @@ std::string UtAction::describe() const {
       << previous_misfit << " -> " << misfit << "); step halved (x" << spread_factor << ")";
     return s.str();
   }
+  if (kind == Kind::kShrinkAndRetry && failed_members.empty()) {  // kMap: re-linearisation
+    s << "iteration " << iteration << ": no damped step lowered the objective; re-linearise at the "
+      << "same centre on a spread x" << spread_factor;
+    return s.str();
+  }
   s << "iteration " << iteration << ", attempt " << attempt << ": members [" << join(failed_members)
     << "] failed; ";
   if (kind == Kind::kShrinkAndRetry) {
@@ -635,6 +640,13 @@ UtSummary UtCalibration::run_local(const Start& start) {
     // Phi = chi^2 / 2 + prior term: a decrease of 0.5 is a change of 1 in chi^2, the width of a
     // one-parameter 68 % confidence interval (Press et al. 2007, Numerical Recipes s.15.6.5).
     constexpr double kNegligibleDecrease = 0.5;
+    // When no damped step lowers Phi the slope over the sigma points contradicts Phi (curvature
+    // across a wide spread): the centre is re-linearised on a spread x kRelinearise (a statistical
+    // linearisation tends to the Jacobian as its spread shrinks), up to kMaxRelinearisations times
+    // in a row before "diverged".
+    constexpr double kRelinearise = 0.25;
+    constexpr int kMaxRelinearisations = 3;
+    int relinearisations = 0;
     bool done = false;
     if (!fit_c.status.ok() || !std::isfinite(phi_c)) {
       summary.actions.push_back({UtAction::Kind::kAbort, 0, 0, 1.0, 0.0, 0.0, {-1}});
@@ -713,6 +725,7 @@ UtSummary UtCalibration::run_local(const Start& start) {
           fit_c = std::move(fit_n);
           phi_c = phi_n;
           P_c = P_post;
+          relinearisations = 0;
           break;
         }
         UtAction action;
@@ -729,6 +742,19 @@ UtSummary UtCalibration::run_local(const Start& start) {
         summary.rejected_steps += 1;
         rec.rejected += 1;
         log_debug("UT: {}", action.describe());
+        if (rec.rejected > options_.max_rejections && relinearisations < kMaxRelinearisations) {
+          ++relinearisations;
+          rec.eta_mean = eta_c;
+          P_c = P_c * (kRelinearise * kRelinearise);
+          lambda = 0.0;
+          nu = 2.0;
+          UtAction relin;
+          relin.iteration = it;
+          relin.spread_factor = kRelinearise;
+          summary.actions.push_back(relin);
+          log_debug("UT: {}", relin.describe());
+          break;
+        }
         if (rec.rejected > options_.max_rejections) {
           rec.eta_mean = eta_c;
           summary.termination = UtTermination::kDiverged;
