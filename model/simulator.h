@@ -119,7 +119,7 @@ struct Trajectory {
 // Beat-level facts a simulator may report beside its curves (lumped and 3D models do).
 struct RunInfo {
   int beats = 0;                    // beats integrated in total
-  double periodicity_change = 0.0;  // max relative beat-to-beat change of the last beat [-]
+  double periodicity_change = 0.0;  // last correction of the periodic start state, scaled [-]
   double period = 0.0;              // [s]
   int newton_iterations = 0;        // total over the run
   int step_cuts = 0;                // how often the time step was halved to recover

@@ -44,7 +44,7 @@ std::vector<io::Indicator> simulate_indicators(const model::RunResult& result,
   out.push_back({"beats", static_cast<double>(result.info.beats), "1",
                  "beats integrated until the beat was periodic"});
   out.push_back({"periodicity_change", result.info.periodicity_change, "1",
-                 "max relative beat-to-beat change of the last beat"});
+                 "last Newton correction of the periodic beat-start state, relative to each entry's scale"});
   return out;
 }
 

@@ -2,6 +2,7 @@
 
 #include "model/enum_names.h"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <sstream>
@@ -50,27 +51,37 @@ constexpr std::array<EnumName<Phase>, 4> kPhaseNames{{
 const char* to_string(Phase p) { return enum_to_string(kPhaseNames, p); }
 
 ValveFlow valve_flow(double P_v, double P_ar, double P_at, const CirculationParameters& c) {
+  // Caruel et al. 2014 s.2.3 (docs/models.md s.2.2), written as two valves so that it stays
+  // continuous when the atrial pressure exceeds the arterial one (both valves open, a corner of the
+  // parameter box that the regime-by-regime form left discontinuous):
+  //   q = K_ar (P_v - P_ar)^+ + { K_at (P_v - P_at)                         if P_v <= P_at
+  //                             { K_p (min(P_v, max(P_ar, P_at)) - P_at)     otherwise.
+  // For P_at <= P_ar this is the published law term by term: filling K_at (P_v - P_at), closed
+  // K_p (P_v - P_at), ejection K_ar (P_v - P_ar) + K_p (P_ar - P_at).
   ValveFlow f;
-  if (P_v <= P_at) {
-    f.regime = ValveRegime::kFilling;
-    f.q = c.K_at * (P_v - P_at);
-    f.q_at = -f.q;
-    f.dq_dPv = c.K_at;
-  } else if (P_v <= P_ar) {
-    f.regime = ValveRegime::kClosed;
-    f.q = c.K_p * (P_v - P_at);
-    f.q_at = -f.q;
-    f.dq_dPv = c.K_p;
-  } else {
-    f.regime = ValveRegime::kEjection;
+  const bool aortic_open = P_v > P_ar;
+  if (aortic_open) {
     f.q_ar = c.K_ar * (P_v - P_ar);
-    f.q_at = -c.K_p * (P_ar - P_at);
-    f.q = f.q_ar - f.q_at;
-    f.dq_dPv = c.K_ar;
-    f.dq_dPar = c.K_p - c.K_ar;
     f.dqar_dPv = c.K_ar;
     f.dqar_dPar = -c.K_ar;
   }
+  double mitral = 0.0, dm_dPv = 0.0, dm_dPar = 0.0;  // the second term of q
+  if (P_v <= P_at) {
+    mitral = c.K_at * (P_v - P_at);
+    dm_dPv = c.K_at;
+  } else if (P_v <= std::max(P_ar, P_at)) {
+    mitral = c.K_p * (P_v - P_at);
+    dm_dPv = c.K_p;
+  } else if (P_ar > P_at) {
+    mitral = c.K_p * (P_ar - P_at);
+    dm_dPar = c.K_p;
+  }
+  f.q = f.q_ar + mitral;
+  f.q_at = -mitral;
+  f.dq_dPv = f.dqar_dPv + dm_dPv;
+  f.dq_dPar = f.dqar_dPar + dm_dPar;
+  f.regime = aortic_open ? ValveRegime::kEjection
+                         : (P_v <= P_at ? ValveRegime::kFilling : ValveRegime::kClosed);
   return f;
 }
 

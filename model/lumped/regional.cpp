@@ -233,20 +233,17 @@ int newton_step(const Model& m, const Layout& l, const Eigen::VectorXd& xo, doub
   Eigen::RowVectorXd scratch(nu);
   std::vector<double> cp;
   xn.resize(xo.size());
-  reduced_residual(c, u, r, J, scratch, cp, nullptr);
-  for (int it = 1; it <= o.newton_max_iterations; ++it) {
-    if (!r.allFinite()) return -1;
-    const Eigen::VectorXd du = J.partialPivLu().solve(-r);
-    if (!du.allFinite()) return -1;
-    u += du;
-    if (1.0 + (xo(kY) + h * u(0)) / m.R0 <= 0.05) return -1;  // the shell collapsed
-    reduced_residual(c, u, r, J, scratch, cp, &xn);
+  reduced_residual(c, u, r, J, scratch, cp, &xn);
+  auto eval = [&](const Eigen::VectorXd& ut, Eigen::VectorXd& rt, Eigen::MatrixXd& Jt,
+                  Eigen::VectorXd& full) {
+    if (1.0 + (xo(kY) + h * ut(0)) / m.R0 <= 0.05) return false;  // the shell collapsed
+    reduced_residual(c, ut, rt, Jt, scratch, cp, &full);
     for (double cq : cp) {
-      if (!(cq > 0.05)) return -1;  // a patch collapsed
+      if (!(cq > 0.05)) return false;  // a patch collapsed
     }
-    if (shell::newton_converged(m, h, u, du, r, o.newton_tolerance)) return it;
-  }
-  return -1;
+    return true;
+  };
+  return shell::damped_newton(m, h, u, r, J, xn, eval, o);
 }
 
 // ---- AHA geometry (truncated prolate ellipsoid, see regional.h).

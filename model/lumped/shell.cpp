@@ -1,5 +1,7 @@
 #include "model/lumped/shell.h"
 
+#include "model/periodic_shooting.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -211,64 +213,63 @@ RunResult run_periodic(const Shell& m, const SphereOptions& o, std::vector<Chann
   const int max_rows = steps_per_beat / o.output_every + 2;
   Eigen::VectorXd times(max_rows);
   Eigen::MatrixXd values(max_rows, static_cast<Eigen::Index>(result.trajectory.channels.size()));
+  int rows = 0;  // of the last recorded beat
 
-  Eigen::VectorXd beat_start = state.x;
-  for (int beat = 0; beat < o.max_beats; ++beat) {
-    const double t0 = beat * T, t_end = (beat + 1) * T;
-    int rows = 0, step = 0;
-    times(rows) = 0.0;
-    values.row(rows++) = sample(state).transpose();
-    while (state.time < t_end) {
-      const double t1 = next_time(state.time, t_end, o.dt, T);
-      const double before = state.time;
-      Status st = step_to(state, t1, &result.info.newton_iterations, &result.info.step_cuts);
-      if (st.ok() && !(state.time > before)) {  // never loop without advancing
-        std::ostringstream s;
-        s << "beat " << beat + 1 << ": no progress at t = " << before << " s (dt = " << o.dt << " s)";
-        st = Status::Error(StatusCode::kInvalidArgument, s.str());
+  // The beat map on the unknowns (the state without its last entry, the diagnostic valve flag,
+  // which starts every beat as the last recorded beat ended). Every beat runs on t in [0, T], so
+  // the map is the same function at every call.
+  const Eigen::Index nu = state.x.size() - 1;
+  double flag = state.x(nu);
+  const BeatMap beat = [&](const Eigen::VectorXd& start, bool record) {
+    BeatOutcome out;
+    State s;
+    s.time = 0.0;
+    s.x.resize(nu + 1);
+    s.x.head(nu) = start;
+    s.x(nu) = flag;
+    out.peak = start.cwiseAbs();
+    int step = 0;
+    if (record) {
+      rows = 0;
+      times(rows) = 0.0;
+      values.row(rows++) = sample(s).transpose();
+    }
+    while (s.time < T) {
+      const double t1 = next_time(s.time, T, o.dt, T);
+      const double before = s.time;
+      out.status = step_to(s, t1, &result.info.newton_iterations, &result.info.step_cuts);
+      if (out.status.ok() && !(s.time > before)) {  // never loop without advancing
+        std::ostringstream msg;
+        msg << "no progress at t = " << before << " s (dt = " << o.dt << " s)";
+        out.status = Status::Error(StatusCode::kInvalidArgument, msg.str());
       }
-      if (!st.ok()) {
-        result.status = st;
-        result.info.beats = beat + 1;
-        result.trajectory.times = times.head(rows);
-        result.trajectory.values = values.topRows(rows);
-        return result;
-      }
+      if (!out.status.ok()) return out;
+      out.peak = out.peak.cwiseMax(s.x.head(nu).cwiseAbs());
       ++step;
-      if (step % o.output_every == 0 || state.time >= t_end) {
+      if (record && (step % o.output_every == 0 || s.time >= T)) {
         if (rows == times.size()) {  // more steps than ceil(T / dt) (rounding): grow, never overflow
           times.conservativeResize(2 * rows);
           values.conservativeResize(2 * rows, Eigen::NoChange);
         }
-        times(rows) = (state.time >= t_end) ? T : state.time - t0;
-        values.row(rows++) = sample(state).transpose();
+        times(rows) = s.time >= T ? T : s.time;
+        values.row(rows++) = sample(s).transpose();
       }
     }
-    state.time = t_end;
-    result.info.beats = beat + 1;
+    if (record) flag = s.x(nu);
+    out.end = s.x.head(nu);
+    return out;
+  };
 
-    // Beat-to-beat change of volume and pressures at the beat start.
-    const Eigen::VectorXd& x = state.x;
-    const double V_new = cavity_volume(m, x(kY)), V_old = cavity_volume(m, beat_start(kY));
-    double change = std::abs(V_new - V_old) / V_old;
-    for (int k : {static_cast<int>(kPv), static_cast<int>(kPar), static_cast<int>(kPd)}) {
-      change = std::max(change, std::abs(x(k) - beat_start(k)) /
-                                    std::max(std::abs(beat_start(k)), 1e3));
-    }
-    result.info.periodicity_change = change;
-    beat_start = x;
-
-    const bool periodic = beat + 1 >= o.min_beats && change <= o.periodic_tolerance;
-    if (periodic || beat + 1 == o.max_beats) {
-      result.trajectory.times = times.head(rows);
-      result.trajectory.values = values.topRows(rows);
-      if (periodic) return result;
-    }
-  }
-  std::ostringstream s;
-  s << "not periodic after " << o.max_beats << " beats: beat-to-beat change "
-    << result.info.periodicity_change << " > " << o.periodic_tolerance;
-  result.status = Status::Error(StatusCode::kNotPeriodic, s.str());
+  ShootingOptions so;
+  so.min_beats = o.min_beats;
+  so.max_beats = o.max_beats;
+  so.tolerance = o.periodic_tolerance;
+  const ShootingResult shot = find_periodic_state(state.x.head(nu), beat, so);
+  result.status = shot.status;
+  result.info.beats = shot.beats;
+  result.info.periodicity_change = shot.correction;
+  result.trajectory.times = times.head(rows);
+  result.trajectory.values = values.topRows(rows);
   return result;
 }
 

@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <numbers>
 #include <sstream>
 #include <string>
@@ -95,6 +96,54 @@ bool newton_converged(const Shell& m, double h, const V& u, const V& du, const V
     if (!(std::abs(du(i)) <= tol * std::max(std::abs(u(i)), typ))) return false;
   }
   return true;
+}
+
+// The per-step Newton solve of both models on the reduced unknowns u, from u with r = r(u) and
+// J = dr/du already evaluated. eval(u, r, J, full) evaluates at u (full: the complete state) and
+// returns false where the state is not physical (a collapsed shell or patch). Each Newton step is
+// damped by backtracking on |r|_2 (Armijo constant 1e-4, halving; Dennis & Schnabel 1996, alg.
+// A6.3.1): the valve law is piecewise linear, and undamped iterates can cycle across its kinks
+// when a large valve conductance makes the flow rows steep (a 10 mL cavity against an aortic valve
+// conductance of 3e-4 m^3/(Pa s)); if no trial decreases |r|, the one with the smallest |r| is
+// taken. Returns the iterations, or -1 (not finite, not physical, or newton_max_iterations spent).
+template <class V, class M, class Full, class Eval>
+int damped_newton(const Shell& m, double h, V& u, V& r, M& J, Full& full, Eval&& eval,
+                  const SphereOptions& o) {
+  constexpr int kMaxHalvings = 10;
+  for (int it = 1; it <= o.newton_max_iterations; ++it) {
+    if (!r.allFinite()) return -1;
+    const V du = J.partialPivLu().solve(-r);
+    if (!du.allFinite()) return -1;
+    const double f0 = r.squaredNorm();
+    V best_u = u, best_r = r, step = du;
+    M best_J = J;
+    Full best_full = full;
+    double best_f = std::numeric_limits<double>::infinity();
+    double lambda = 1.0;
+    for (int k = 0; k <= kMaxHalvings; ++k, lambda *= 0.5) {
+      V ut = u + lambda * du, rt = r;
+      M Jt = J;
+      Full ft = full;
+      if (!eval(ut, rt, Jt, ft) || !rt.allFinite()) continue;
+      const double f = rt.squaredNorm();
+      if (f < best_f) {
+        best_f = f;
+        best_u = ut;
+        best_r = rt;
+        best_J = Jt;
+        best_full = ft;
+        step = lambda * du;
+      }
+      if (f <= (1.0 - 2e-4 * lambda) * f0) break;
+    }
+    if (!(best_f < std::numeric_limits<double>::infinity())) return -1;  // no physical trial
+    u = best_u;
+    r = best_r;
+    J = best_J;
+    full = best_full;
+    if (newton_converged(m, h, u, step, r, o.newton_tolerance)) return it;
+  }
+  return -1;
 }
 
 // Static passive balance (d0/R0) s Sigma_pas(s^2) = P s^2 for y (bisection: robust, one call/run).

@@ -178,17 +178,13 @@ int newton_step(const Model& m, const Vec& xo, double t0, double t1, const Spher
   Vec4 u(xo(kV), xo(kPv), xo(kPar), xo(kEc) + 0.5 * (s_pred * s_pred - s_old * s_old));
   Vec4 r;
   Mat4 J;
-  reduced_residual(c, u, r, J, nullptr);
-  for (int it = 1; it <= o.newton_max_iterations; ++it) {
-    if (!r.allFinite()) return -1;
-    const Vec4 du = J.partialPivLu().solve(-r);
-    if (!du.allFinite()) return -1;
-    u += du;
-    if (1.0 + (xo(kY) + h * u(0)) / m.R0 <= 0.05) return -1;  // collapsed shell: not physical
-    reduced_residual(c, u, r, J, &xn);  // convergence test, and the next Jacobian
-    if (shell::newton_converged(m, h, u, du, r, o.newton_tolerance)) return it;
-  }
-  return -1;
+  reduced_residual(c, u, r, J, &xn);
+  auto eval = [&](const Vec4& ut, Vec4& rt, Mat4& Jt, Vec& full) {
+    if (1.0 + (xo(kY) + h * ut(0)) / m.R0 <= 0.05) return false;  // collapsed shell: not physical
+    reduced_residual(c, ut, rt, Jt, &full);
+    return true;
+  };
+  return shell::damped_newton(m, h, u, r, J, xn, eval, o);
 }
 
 }  // namespace

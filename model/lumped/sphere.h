@@ -22,9 +22,11 @@ struct SphereOptions {
   static constexpr int kMinStepsPerBeat = 20;
 
   double dt = 1e-3;                  // time step [s]
-  int min_beats = 3;                 // beats always integrated before testing periodicity
-  int max_beats = 40;                // give up (kNotPeriodic) after this many beats
-  double periodic_tolerance = 1e-3;  // max relative beat-to-beat change of V, P at beat start [-]
+  // The periodic beat is found by Newton-Krylov shooting (model/periodic_shooting.h).
+  int min_beats = 3;                 // plain beats before the first Newton step
+  int max_beats = 200;               // beats of every kind before giving up (kNotPeriodic)
+  double periodic_tolerance = 1e-6;  // last Newton correction of the beat-start state, relative
+                                     // to each entry's peak over the beat [-]
   int output_every = 1;              // keep every k-th step in the returned trajectory
   double newton_tolerance = 1e-10;   // relative residual tolerance of the per-step Newton solve
   int newton_max_iterations = 25;
@@ -33,8 +35,8 @@ struct SphereOptions {
 };
 
 // Backward Euler (first order) on (y, y', P_v, P_ar, P_d, e_c, k_c, tau_c), one small Newton solve
-// per step (sphere.cpp). run() integrates beats from a relaxed state until the beat-to-beat change
-// is below periodic_tolerance and returns the last beat on t in [0, period]. Channels (SI):
+// per step (sphere.cpp). run() finds the periodic beat from a relaxed state by shooting (Newton on
+// the beat map, model/periodic_shooting.h) and returns it on t in [0, period]. Channels (SI):
 // V_lv, P_lv, P_ar, P_at, q_ar, q_at, phase (0 filling, 1 isovolumic contraction, 2 ejection,
 // 3 isovolumic relaxation), P_d, e_fibre, e_c, k_c, tau_c, sigma_act, viscous_power.
 // The state is the eight unknowns plus last_open_valve (state_layout()); t = 0 of every beat is

@@ -1,0 +1,154 @@
+#include "model/periodic_shooting.h"
+
+#include <Eigen/Dense>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <optional>
+#include <sstream>
+
+namespace sigmaheart::model {
+namespace {
+
+using Eigen::MatrixXd;
+using Eigen::VectorXd;
+
+// y = A v, false when it could not be evaluated (a beat failed, or the beat budget is spent).
+using Apply = std::function<bool(const VectorXd& v, VectorXd& y)>;
+
+// GMRES(k) from z = 0 for A z = b (Saad & Schultz 1986, algorithm 4: Arnoldi by modified
+// Gram-Schmidt, here with one re-orthogonalisation pass, and the small least-squares problem
+// min |beta e1 - H y| solved by QR). Stops at |b - A z| <= rtol |b|, at a breakdown (exact in the
+// space), or after kmax vectors (the best z in the space). nullopt when `apply` failed.
+std::optional<VectorXd> gmres(const Apply& apply, const VectorXd& b, int kmax, double rtol) {
+  const Eigen::Index n = b.size();
+  const double beta = b.norm();
+  if (beta == 0.0) return VectorXd::Zero(n);
+  const int k_max = static_cast<int>(std::min<Eigen::Index>(kmax, n));
+  MatrixXd Q(n, k_max + 1);
+  MatrixXd H = MatrixXd::Zero(k_max + 1, k_max);
+  Q.col(0) = b / beta;
+  VectorXd y;
+  for (int k = 0; k < k_max; ++k) {
+    VectorXd w;
+    if (!apply(Q.col(k), w)) return std::nullopt;
+    const double w_norm = w.norm();
+    for (int pass = 0; pass < 2; ++pass) {
+      for (int j = 0; j <= k; ++j) {
+        const double h = Q.col(j).dot(w);
+        H(j, k) += h;
+        w -= h * Q.col(j);
+      }
+    }
+    H(k + 1, k) = w.norm();
+    const MatrixXd Hk = H.topLeftCorner(k + 2, k + 1);
+    VectorXd rhs = VectorXd::Zero(k + 2);
+    rhs(0) = beta;
+    y = Hk.colPivHouseholderQr().solve(rhs);
+    const bool breakdown = H(k + 1, k) <= 1e-13 * std::max(w_norm, 1.0);
+    if (breakdown || (rhs - Hk * y).norm() <= rtol * beta) return VectorXd(Q.leftCols(k + 1) * y);
+    Q.col(k + 1) = w / H(k + 1, k);
+  }
+  return VectorXd(Q.leftCols(k_max) * y);
+}
+
+double max_abs(const VectorXd& v) { return v.size() == 0 ? 0.0 : v.cwiseAbs().maxCoeff(); }
+
+}  // namespace
+
+ShootingResult find_periodic_state(const VectorXd& x0, const BeatMap& beat,
+                                   const ShootingOptions& o) {
+  ShootingResult res;
+  const Eigen::Index n = x0.size();
+  VectorXd peak = VectorXd::Zero(n);  // the largest |x_i(t)| seen on any good beat
+  auto run = [&](const VectorXd& start, bool record) {
+    BeatOutcome b = beat(start, record);
+    ++res.beats;
+    if (b.status.ok() && b.peak.size() == n && b.peak.allFinite()) peak = peak.cwiseMax(b.peak);
+    return b;
+  };
+  auto fail = [&](Status st, const VectorXd& x) {
+    res.status = std::move(st);
+    res.start = x;
+    return res;
+  };
+
+  VectorXd x = x0;
+  BeatOutcome base = run(x, true);
+  for (int b = 1; base.status.ok() && b < o.min_beats; ++b) {
+    x = base.end;
+    base = run(x, true);
+  }
+  if (!base.status.ok()) return fail(base.status, x);
+
+  while (true) {
+    // Scales: each entry by its peak over the beat; an entry that is 0 all beat keeps scale 1.
+    VectorXd s = peak;
+    for (Eigen::Index i = 0; i < n; ++i) {
+      if (!(s(i) > 0.0)) s(i) = 1.0;
+      s(i) = std::max(s(i), std::numeric_limits<double>::min() / std::numeric_limits<double>::epsilon());
+    }
+    const VectorXd r = (base.end - x).cwiseQuotient(s);  // G(x) = F(x) - x, scaled
+    if (!r.allFinite()) {
+      return fail(Status::Error(StatusCode::kNonFinite, "the beat map gave a non-finite state"), x);
+    }
+    res.correction = max_abs(r);
+    if (res.correction == 0.0) break;  // already exactly periodic (e.g. a state at rest)
+    if (res.beats >= o.max_beats) break;
+
+    // Newton step: (I - dF/dx) dz = r in scaled units, dF/dx v by a forward difference.
+    const Apply apply = [&](const VectorXd& v, VectorXd& y) {
+      if (res.beats >= o.max_beats) return false;
+      const BeatOutcome p = run(x + o.fd_step * v.cwiseProduct(s), false);
+      if (!p.status.ok()) return false;
+      y = v - (p.end - base.end).cwiseQuotient(s) / o.fd_step;
+      return y.allFinite();
+    };
+    const std::optional<VectorXd> dz = gmres(apply, r, o.max_krylov, o.krylov_tolerance);
+    bool moved = false;
+    if (dz && dz->allFinite()) {
+      ++res.newton_steps;
+      const double step = max_abs(*dz);
+      // Backtracking on |G|_2 (Armijo constant 1e-4, halving). A step below the tolerance is the
+      // last one: it is taken whole and its beat is the periodic beat.
+      double lambda = 1.0;
+      for (int ls = 0; ls < 6 && res.beats < o.max_beats; ++ls, lambda *= 0.5) {
+        const VectorXd xt = x + lambda * dz->cwiseProduct(s);
+        BeatOutcome trial = run(xt, true);
+        if (!trial.status.ok()) continue;
+        const VectorXd rt = (trial.end - xt).cwiseQuotient(s);
+        if (step <= o.tolerance || rt.norm() <= (1.0 - 1e-4 * lambda) * r.norm()) {
+          x = xt;
+          base = std::move(trial);
+          moved = true;
+          break;
+        }
+      }
+      if (moved && step <= o.tolerance) {
+        res.correction = step;
+        res.start = x;
+        res.status = Status::Ok();
+        return res;
+      }
+    }
+    if (!moved) {  // no usable Newton step: one plain beat, which never makes things worse
+      if (res.beats >= o.max_beats) break;
+      x = base.end;
+      base = run(x, true);
+      if (!base.status.ok()) return fail(base.status, x);
+    }
+  }
+  if (res.correction == 0.0) {
+    res.start = x;
+    res.status = Status::Ok();
+    return res;
+  }
+  std::ostringstream m;
+  m << "not periodic after " << res.beats << " beats (max_beats " << o.max_beats << ", "
+    << res.newton_steps << " Newton steps): the start state still changes by "
+    << res.correction << " of its scale per beat (tolerance " << o.tolerance << ")";
+  return fail(Status::Error(StatusCode::kNotPeriodic, m.str()), x);
+}
+
+}  // namespace sigmaheart::model

@@ -1,0 +1,89 @@
+// Newton-Krylov shooting (model/periodic_shooting.h) against beat maps with known fixed points.
+#include "model/periodic_shooting.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+
+#include <cmath>
+
+namespace sigmaheart::model {
+namespace {
+
+// The beat map of a linear system x' = A x + b over one period T, exactly: F(x) = E x + c with
+// E = exp(A T) (diagonal A here) and c = (E - I) A^{-1} b. Its fixed point is -A^{-1} b.
+struct LinearBeat {
+  Eigen::VectorXd rate;  // diagonal of A [1/s], all negative
+  Eigen::VectorXd b;
+  double T = 1.0;
+  int recorded = 0;
+  BeatOutcome operator()(const Eigen::VectorXd& x, bool record) {
+    if (record) ++recorded;
+    const Eigen::VectorXd E = (rate * T).array().exp();
+    const Eigen::VectorXd xs = -b.cwiseQuotient(rate);  // fixed point
+    BeatOutcome o;
+    o.end = xs + E.cwiseProduct(x - xs);
+    o.peak = x.cwiseAbs().cwiseMax(o.end.cwiseAbs());
+    return o;
+  }
+};
+
+TEST(PeriodicShooting, FindsTheFixedPointOfANearlyNeutralModeInAFewBeats) {
+  // Time constants 0.05 s, 0.3 s and 4.5e4 s (a distal Windkessel with R_d C_d ~ 4.5e4 s): plain
+  // iteration contracts that mode by 1 - 2.2e-5 per beat and would need ~1e6 beats for 1e-6.
+  LinearBeat lin;
+  lin.rate = Eigen::Vector3d(-20.0, -1.0 / 0.3, -1.0 / 4.5e4);
+  lin.b = Eigen::Vector3d(2e4, 3.0, 1e4 / 4.5e4);  // fixed point (1000, 0.9, 1e4)
+  const BeatMap beat = [&](const Eigen::VectorXd& x, bool record) { return lin(x, record); };
+  ShootingOptions o;
+  const ShootingResult r = find_periodic_state(Eigen::Vector3d(0.0, 0.0, 5e3), beat, o);
+  ASSERT_TRUE(r.status.ok()) << r.status.message;
+  EXPECT_NEAR(r.start(0), 1000.0, 1e-6 * 1000.0);
+  EXPECT_NEAR(r.start(1), 0.9, 1e-6 * 0.9);
+  EXPECT_NEAR(r.start(2), 1e4, 1e-6 * 1e4);
+  // 3 plain beats, then Newton steps of at most 3 Krylov beats and one trial beat each.
+  EXPECT_LE(r.beats, 3 + 3 * (3 + 1) + 1);
+  EXPECT_LE(r.correction, o.tolerance);
+}
+
+TEST(PeriodicShooting, ConvergesOnANonlinearMapFromFarAway) {
+  // A cubic first entry, F_0(x) = x - 0.01 (x^3 - 8), and a slow linear second one; fixed point
+  // (2, -1), started where the cubic's slope is a quarter of its slope at the root.
+  const BeatMap beat = [](const Eigen::VectorXd& x, bool) {
+    BeatOutcome o;
+    o.end = Eigen::Vector2d(x(0) - 0.01 * (x(0) * x(0) * x(0) - 8.0), 0.999 * x(1) - 0.001);
+    o.peak = x.cwiseAbs().cwiseMax(o.end.cwiseAbs());
+    return o;
+  };
+  ShootingOptions o;
+  const ShootingResult r = find_periodic_state(Eigen::Vector2d(1.0, 5.0), beat, o);
+  ASSERT_TRUE(r.status.ok()) << r.status.message;
+  EXPECT_NEAR(r.start(0), 2.0, 1e-6 * 2.0);
+  EXPECT_NEAR(r.start(1), -1.0, 1e-6 * 5.0);
+}
+
+TEST(PeriodicShooting, ABudgetTooSmallIsNotPeriodicAndAFailedBeatIsPassedOn) {
+  LinearBeat lin;
+  lin.rate = Eigen::Vector2d(-1.0 / 4.5e4, -1.0);
+  lin.b = Eigen::Vector2d(1.0, 1.0);
+  const BeatMap beat = [&](const Eigen::VectorXd& x, bool record) { return lin(x, record); };
+  ShootingOptions o;
+  o.max_beats = 3;  // only the plain beats
+  const ShootingResult r = find_periodic_state(Eigen::Vector2d(0.0, 0.0), beat, o);
+  EXPECT_EQ(r.status.code, StatusCode::kNotPeriodic);
+  EXPECT_NE(r.status.message.find("not periodic after 3 beats"), std::string::npos)
+      << r.status.message;
+
+  const BeatMap broken = [](const Eigen::VectorXd& x, bool) {
+    BeatOutcome o;
+    o.status = Status::Error(StatusCode::kDiverged, "Newton did not converge at t = 0.1 s");
+    o.end = x;
+    return o;
+  };
+  const ShootingResult f = find_periodic_state(Eigen::Vector2d(0.0, 0.0), broken, ShootingOptions{});
+  EXPECT_EQ(f.status.code, StatusCode::kDiverged);
+  EXPECT_EQ(f.beats, 1);
+}
+
+}  // namespace
+}  // namespace sigmaheart::model
