@@ -5,7 +5,7 @@
 // objective Phi reached), `converged` (1 when the estimator says so). The target is a
 // 12-parameter calibration in under 10 s on 2 threads (experiments/foreign-data/README.md).
 //   build/bench/calibration_bench                                   # all four, one pass each
-//   build/bench/calibration_bench --benchmark_filter=Ut/12
+//   build/bench/calibration_bench --benchmark_filter='params:12/ceres:0'
 #include "app/calibration_setup.h"
 #include "app/config.h"
 #include "estimation/forward_model.h"
@@ -14,7 +14,9 @@
 
 #include <benchmark/benchmark.h>
 
+#include <memory>
 #include <string>
+#include <tuple>
 
 namespace {
 
@@ -23,62 +25,63 @@ using namespace sigmaheart;
 constexpr int kThreads = 2;
 constexpr const char* kCase = "one-fibre-healthy";  // 72 bpm, 30 frames of V_lv and P_lv
 
-// The shipped config (12 parameters) or the 5-parameter one, on kCase with its period.
-app::Config foreign_config(int parameters) {
-  const std::string dir = std::string(SIGMAHEART_SOURCE_DIR) + "/experiments/foreign-data/";
-  const std::string file = parameters == 5 ? "calibrate-foreign-5.yaml" : "calibrate-foreign.yaml";
-  return app::load_config(dir + file, {std::string("observations.file=../../configs/data/foreign/") +
-                                           kCase + ".csv",
-                                       "period=0.833333"});
-}
-
-estimation::EnsembleOptions two_threads() {
-  estimation::EnsembleOptions e;
-  e.backend = estimation::Backend::kThreads;
-  e.threads = kThreads;
-  return e;
-}
-
-// Args: number of estimated parameters (5 or 12).
-void BM_CalibrateForeignUt(benchmark::State& state) {
-  const app::Config config = foreign_config(static_cast<int>(state.range(0)));
-  const app::CalibrationProblem problem = app::parse_calibration_problem(config);
-  const auto simulator = config.simulator.make();
-  estimation::SimulatorForwardModel forward(*simulator, *problem.observer, problem.prior.names());
-  estimation::UtOptions options = problem.options;
-  options.ensemble = two_threads();
-  estimation::UtSummary summary;
-  for (auto _ : state) {
-    estimation::UtCalibration calibration(forward, problem.prior, problem.observations, options);
-    summary = calibration.run();
+// The shipped config (12 parameters) or the 5-parameter one on kCase with its period, parsed as
+// `sigmaheart calibrate` parses it, and the forward model of its estimated parameters.
+struct ForeignProblem {
+  explicit ForeignProblem(int parameters)
+      : config(app::load_config(
+            std::string(SIGMAHEART_SOURCE_DIR) + "/experiments/foreign-data/" +
+                (parameters == 5 ? "calibrate-foreign-5.yaml" : "calibrate-foreign.yaml"),
+            {std::string("observations.file=../../configs/data/foreign/") + kCase + ".csv",
+             "period=0.833333"})),
+        problem(app::parse_calibration_problem(config)),
+        simulator(config.simulator.make()),
+        forward(*simulator, *problem.observer, problem.prior.names()) {
+    ensemble.backend = estimation::Backend::kThreads;
+    ensemble.threads = kThreads;
   }
-  state.counters["simulations"] = summary.simulations;
-  state.counters["objective"] = summary.objective;
-  state.counters["converged"] = summary.termination == estimation::UtTermination::kConverged ? 1 : 0;
-  state.SetLabel(std::string(kCase) + ", " + estimation::to_string(summary.termination));
-}
-BENCHMARK(BM_CalibrateForeignUt)
-    ->ArgName("params")->Arg(5)->Arg(12)
-    ->Iterations(1)->UseRealTime()->Unit(benchmark::kSecond);
+  app::Config config;
+  app::CalibrationProblem problem;
+  std::unique_ptr<model::Simulator> simulator;
+  estimation::SimulatorForwardModel forward;
+  estimation::EnsembleOptions ensemble;
+};
 
-void BM_CalibrateForeignCeres(benchmark::State& state) {
-  const app::Config config = foreign_config(static_cast<int>(state.range(0)));
-  const app::CalibrationProblem problem = app::parse_calibration_problem(config);
-  const auto simulator = config.simulator.make();
-  estimation::SimulatorForwardModel forward(*simulator, *problem.observer, problem.prior.names());
-  estimation::LeastSquaresOptions options = problem.least_squares;
-  options.ensemble = two_threads();
-  estimation::LeastSquaresSummary summary;
+// Args: number of estimated parameters (5 or 12); estimator (0: the UT as the config sets it,
+// 1: the Ceres reference as the config sets it: a single start from the prior, since neither
+// config has a global_start).
+void BM_CalibrateForeign(benchmark::State& state) {
+  ForeignProblem f(static_cast<int>(state.range(0)));
+  const bool ceres = state.range(1) == 1;
+  int simulations = 0;
+  double objective = 0;
+  bool converged = false;
+  std::string termination;
   for (auto _ : state) {
-    summary = estimation::solve_map(forward, problem.prior, problem.observations, options);
+    if (ceres) {
+      estimation::LeastSquaresOptions options = f.problem.least_squares;
+      options.ensemble = f.ensemble;
+      const auto s = estimation::solve_map(f.forward, f.problem.prior, f.problem.observations, options);
+      std::tie(simulations, objective, converged) = std::tuple(s.simulations, s.cost, s.ok());
+      termination = estimation::to_string(s.termination);
+    } else {
+      estimation::UtOptions options = f.problem.options;
+      options.ensemble = f.ensemble;
+      const auto s =
+          estimation::UtCalibration(f.forward, f.problem.prior, f.problem.observations, options).run();
+      std::tie(simulations, objective, converged) =
+          std::tuple(s.simulations, s.objective, s.termination == estimation::UtTermination::kConverged);
+      termination = estimation::to_string(s.termination);
+    }
   }
-  state.counters["simulations"] = summary.simulations;
-  state.counters["objective"] = summary.cost;
-  state.counters["converged"] = summary.ok() ? 1 : 0;
-  state.SetLabel(std::string(kCase) + ", " + estimation::to_string(summary.termination));
+  state.counters["simulations"] = simulations;
+  state.counters["objective"] = objective;
+  state.counters["converged"] = converged ? 1 : 0;
+  state.SetLabel(std::string(ceres ? "Ceres, " : "UT, ") + kCase + ", " + termination);
 }
-BENCHMARK(BM_CalibrateForeignCeres)
-    ->ArgName("params")->Arg(5)->Arg(12)
+BENCHMARK(BM_CalibrateForeign)
+    ->ArgNames({"params", "ceres"})
+    ->ArgsProduct({{5, 12}, {0, 1}})
     ->Iterations(1)->UseRealTime()->Unit(benchmark::kSecond);
 
 }  // namespace
