@@ -82,6 +82,77 @@ ShootingResult find_periodic_state(const VectorXd& x0, const BeatMap& beat,
   }
   if (!base.status.ok()) return fail(base.status, x);
 
+  // Watchdog (Chamberlain, Powell, Lemarechal & Pedersen 1982, Math Program Stud 16:1; Nocedal &
+  // Wright 2006 s.15.6): a full Newton step that raises |G| is still taken once, and the method
+  // returns to the point before it unless |G| falls below that point's value within kWatch
+  // steps. The beat map has kinks (a valve starts to open) next to nearly neutral modes: from the
+  // flat side of a kink Newton overshoots into the steep side, from which it converges, but a
+  // monotone line search never lets it cross. A step that halves |G| does not count against the
+  // window (the beats are still bounded by max_beats).
+  constexpr int kWatch = 6;
+  VectorXd x_ref;
+  double ref_norm = 0.0, last_norm = 0.0;
+  int watching = 0;  // steps left in the watch window; 0: not watching
+  bool free_step = true;
+  bool search_ray = false;  // after a failed watch: find the root along the Newton ray
+
+  // The root of phi(lambda) = G(x + lambda S dz) . G(x) / |G(x)|^2 on the Newton ray, bracketed by
+  // phi(0) = 1 and an overshooting full step (phi(1) < 0), by the Illinois variant of regula falsi
+  // (Dowell & Jarratt 1971, BIT 11:168), which keeps its superlinear rate when G is steep on one
+  // side of a kink and flat on the other: where the watchdog came back without progress, the
+  // periodic state sits just past such a kink, and Newton steps from either side overshoot it.
+  // Takes the point with the smallest |G| if it decreases |G| (Armijo), leaving its beat recorded.
+  auto root_on_ray = [&](VectorXd& x_io, const VectorXd& dz, const VectorXd& s, const VectorXd& r,
+                         BeatOutcome& base_io) {
+    const double r_norm = r.norm();
+    double best_norm = r_norm, best_lam = -1.0, last_lam = -1.0;
+    BeatOutcome best;
+    auto phi_at = [&](double lam, double* phi) {
+      const VectorXd xt = x_io + lam * dz.cwiseProduct(s);
+      BeatOutcome t = run(xt, true);
+      last_lam = lam;
+      if (!t.status.ok()) return false;
+      const VectorXd rt = (t.end - xt).cwiseQuotient(s);
+      if (!rt.allFinite()) return false;
+      *phi = rt.dot(r) / (r_norm * r_norm);
+      if (rt.norm() < best_norm) {
+        best_norm = rt.norm();
+        best_lam = lam;
+        best = std::move(t);
+      }
+      return true;
+    };
+    double lo = 0.0, phi_lo = 1.0, hi = 1.0, phi_hi = 0.0;
+    if (res.beats >= o.max_beats || !phi_at(1.0, &phi_hi) || !(phi_hi < 0.0)) return false;
+    int side = 0;
+    for (int k = 0; k < 30 && res.beats < o.max_beats && best_norm > 1e-3 * r_norm &&
+                    hi - lo > 1e-12;
+         ++k) {
+      double lam = hi - phi_hi * (hi - lo) / (phi_hi - phi_lo);
+      if (!(lam > lo && lam < hi)) lam = 0.5 * (lo + hi);
+      double phi = 0.0;
+      if (!phi_at(lam, &phi)) {  // a failed beat: treat as past the root
+        hi = lam;
+        continue;
+      }
+      if (phi < 0.0) {
+        hi = lam;
+        phi_hi = phi;
+        if (side == -1) phi_lo *= 0.5;
+        side = -1;
+      } else {
+        lo = lam;
+        phi_lo = phi;
+        if (side == 1) phi_hi *= 0.5;
+        side = 1;
+      }
+    }
+    if (!(best_lam > 0.0 && best_norm <= (1.0 - 1e-4 * best_lam) * r_norm)) return false;
+    x_io += best_lam * dz.cwiseProduct(s);
+    base_io = best_lam == last_lam ? std::move(best) : run(x_io, true);
+    return base_io.status.ok();
+  };
+
   while (true) {
     // Scales: each entry by its peak over the beat; an entry that is 0 all beat keeps scale 1.
     VectorXd s = peak;
@@ -96,6 +167,21 @@ ShootingResult find_periodic_state(const VectorXd& x0, const BeatMap& beat,
     res.correction = max_abs(r);
     if (res.correction == 0.0) break;  // already exactly periodic (e.g. a state at rest)
     if (res.beats >= o.max_beats) break;
+    if (watching > 0) {
+      const bool fast = r.norm() < 0.5 * last_norm;  // still closing in: the window stays open
+      last_norm = r.norm();
+      if (r.norm() < ref_norm) {  // paid off; another free step only after a clear gain
+        watching = 0;
+        free_step = r.norm() < 0.1 * ref_norm;
+      } else if (!fast && --watching == 0) {  // the free step did not pay off: back to where it started
+        x = x_ref;
+        base = run(x, true);
+        if (!base.status.ok()) return fail(base.status, x);
+        free_step = false;
+        search_ray = true;
+        continue;
+      }
+    }
 
     // Newton step: (I - dF/dx) dz = r in scaled units, dF/dx v by a forward difference.
     const Apply apply = [&](const VectorXd& v, VectorXd& y) {
@@ -112,13 +198,30 @@ ShootingResult find_periodic_state(const VectorXd& x0, const BeatMap& beat,
       const double step = max_abs(*dz);
       // Backtracking on |G|_2 (Armijo constant 1e-4, halving). A step below the tolerance is the
       // last one: it is taken whole and its beat is the periodic beat.
+      if ((search_ray || !free_step) && watching == 0 && step > o.tolerance) {
+        search_ray = false;
+        moved = root_on_ray(x, *dz, s, r, base);
+      }
       double lambda = 1.0;
-      for (int ls = 0; ls < 6 && res.beats < o.max_beats; ++ls, lambda *= 0.5) {
+      for (int ls = 0; ls < 6 && !moved && res.beats < o.max_beats; ++ls, lambda *= 0.5) {
         const VectorXd xt = x + lambda * dz->cwiseProduct(s);
         BeatOutcome trial = run(xt, true);
         if (!trial.status.ok()) continue;
         const VectorXd rt = (trial.end - xt).cwiseQuotient(s);
-        if (step <= o.tolerance || rt.norm() <= (1.0 - 1e-4 * lambda) * r.norm()) {
+        const bool armijo = rt.norm() <= (1.0 - 1e-4 * lambda) * r.norm();
+        if (!armijo && ls == 0 && free_step && watching == 0 && step > o.tolerance) {
+          x_ref = x;
+          ref_norm = r.norm();
+          last_norm = std::numeric_limits<double>::infinity();
+          watching = kWatch;
+          free_step = false;
+          x = xt;
+          base = std::move(trial);
+          moved = true;
+          break;
+        }
+        if (step <= o.tolerance || armijo) {
+          if (watching == 0 && ls == 0) free_step = true;  // a full Newton step re-arms it
           x = xt;
           base = std::move(trial);
           moved = true;

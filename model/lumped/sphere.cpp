@@ -232,7 +232,11 @@ ParameterSpace LumpedSphere::default_parameters() {
   set(kMu, "Pa s", 70.0, 0.0, 1e4, "contractile-element viscosity [C14 working set]");
   set(kAlpha, "1", 1.5, 0.0, 100.0, "cross-bridge destruction by sliding [C14 working set]");
   set(kK0, "Pa", 1e5, 0.0, 1e8, "maximal active stiffness [C14 working set]");
-  set(kSigma0, "Pa", 5.3e4, 0.0, 1e7, "contractility, maximal active stress [T: EF ~60 %]");
+  // Upper bound 1 MPa: ten times the peak isometric tension of myocardium, T_ref ~ 100 kPa (Hunter,
+  // McCulloch & ter Keurs 1998, Prog Biophys Mol Biol 69:289). Above ~6 MPa, with a large
+  // sliding destruction alpha, the backward-Euler step of the contractile element has no solution
+  // near e_c' = 0 (the |e_c'| term makes its residual V-shaped) and runs failed.
+  set(kSigma0, "Pa", 5.3e4, 0.0, 1e6, "contractility, maximal active stress [T: EF ~60 %]");
   set(kKATP, "1/s", 8.0, 0.1, 1000.0,
       "contraction rate [T: dP/dt max ~1500 mmHg/s; 35 (C14) gives ~15000 in 0D]");
   set(kKRS, "1/s", 20.0, 0.1, 1000.0, "relaxation rate [C14 working set]");

@@ -24,7 +24,7 @@ struct SphereOptions {
   double dt = 1e-3;                  // time step [s]
   // The periodic beat is found by Newton-Krylov shooting (model/periodic_shooting.h).
   int min_beats = 3;                 // plain beats before the first Newton step
-  int max_beats = 200;               // beats of every kind before giving up (kNotPeriodic)
+  int max_beats = 400;               // beats of every kind before giving up (kNotPeriodic)
   double periodic_tolerance = 1e-6;  // last Newton correction of the beat-start state, relative
                                      // to each entry's peak over the beat [-]
   int output_every = 1;              // keep every k-th step in the returned trajectory

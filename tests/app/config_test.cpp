@@ -87,7 +87,7 @@ TEST(Config, WrongTypeSaysWhatWasExpected) {
 
 TEST(Config, OutOfBoundsValueNamesParameterValueUnitAndBounds) {
   EXPECT_EQ(error_of([] { parse_config(with_line(kHealthy, 7, "    sigma0: 3e9"), "x.yaml"); }),
-            "x.yaml:7:13: parameter 'sigma0' = 3e+09 Pa is outside its bounds [0, 1e+07] Pa");
+            "x.yaml:7:13: parameter 'sigma0' = 3e+09 Pa is outside its bounds [0, 1e+06] Pa");
 }
 
 TEST(Config, InvalidNumericsPointAtTheField) {
@@ -131,7 +131,7 @@ TEST(Config, SetErrorsNameTheOverride) {
             "--set sigma_0=1.5e5: unknown parameter 'sigma_0' for model lumped-sphere (did you mean "
             "'sigma0'?)");
   EXPECT_EQ(error_of([] { parse_config(kHealthy, "x.yaml", {"sigma0=-1"}); }),
-            "--set sigma0=-1: parameter 'sigma0' = -1 Pa is outside its bounds [0, 1e+07] Pa");
+            "--set sigma0=-1: parameter 'sigma0' = -1 Pa is outside its bounds [0, 1e+06] Pa");
   EXPECT_EQ(error_of([] { parse_config(kHealthy, "x.yaml", {"numerics.dt=abc"}); }),
             "--set numerics.dt=abc: simulator.numerics.dt: expected a number in s or '<number> "
             "<unit>', got 'abc'");
