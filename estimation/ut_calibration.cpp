@@ -142,6 +142,11 @@ std::string UtAction::describe() const {
       << previous_misfit << " -> " << misfit << "); step halved (x" << spread_factor << ")";
     return s.str();
   }
+  if (kind == Kind::kShrinkAndRetry && failed_members.empty()) {  // kMap: re-linearisation
+    s << "iteration " << iteration << ": no damped step lowered the objective; re-linearise at the "
+      << "same centre on a spread x" << spread_factor;
+    return s.str();
+  }
   s << "iteration " << iteration << ", attempt " << attempt << ": members [" << join(failed_members)
     << "] failed; ";
   if (kind == Kind::kShrinkAndRetry) {
@@ -632,6 +637,16 @@ UtSummary UtCalibration::run_local(const Start& start) {
     const Eigen::MatrixXd P0inv = objective.P0.solve(Eigen::MatrixXd::Identity(p, p));
     Eigen::MatrixXd P_c = P0;
     double lambda = 0.0, nu = 2.0;
+    // Phi = chi^2 / 2 + prior term: a decrease of 0.5 is a change of 1 in chi^2, the width of a
+    // one-parameter 68 % confidence interval (Press et al. 2007, Numerical Recipes s.15.6.5).
+    constexpr double kNegligibleDecrease = 0.5;
+    // When no damped step lowers Phi the slope over the sigma points contradicts Phi (curvature
+    // across a wide spread): the centre is re-linearised on a spread x kRelinearise (a statistical
+    // linearisation tends to the Jacobian as its spread shrinks), up to kMaxRelinearisations times
+    // in a row before "diverged".
+    constexpr double kRelinearise = 0.25;
+    constexpr int kMaxRelinearisations = 3;
+    int relinearisations = 0;
     bool done = false;
     if (!fit_c.status.ok() || !std::isfinite(phi_c)) {
       summary.actions.push_back({UtAction::Kind::kAbort, 0, 0, 1.0, 0.0, 0.0, {-1}});
@@ -682,7 +697,11 @@ UtSummary UtCalibration::run_local(const Start& start) {
           done = true;
           break;
         }
-        if (rec.step < options_.tolerance) {
+        // A step made short by a large lambda after rejected candidates is not a stationary point
+        // of Phi: converged only when the undamped Gauss-Newton step promises no decrease above
+        // kNegligibleDecrease either (its predicted decrease g.d_gn / 2 on the linearised Phi).
+        const double gn_decrease = 0.5 * g.dot(eta_gn - eta_c);
+        if (rec.step < options_.tolerance && gn_decrease < kNegligibleDecrease) {
           rec.eta_mean = eta_c;
           summary.termination = UtTermination::kConverged;
           done = true;
@@ -692,7 +711,7 @@ UtSummary UtCalibration::run_local(const Start& start) {
         current_attempt = candidate;
         UtFit fit_n = run_one(eta_n, it);
         const double phi_n = objective.phi(fit_n, eta_n);
-        if (std::isfinite(phi_n) && phi_n <= phi_c) {
+        if (std::isfinite(phi_n) && phi_n < phi_c) {
           // Gain ratio of the actual to the predicted decrease (Nielsen 1999, eq. 2.3 update).
           const double predicted = g.dot(d) - 0.5 * d.dot(H * d);
           const double rho = predicted > 0 ? (phi_c - phi_n) / predicted : 0.0;
@@ -706,6 +725,7 @@ UtSummary UtCalibration::run_local(const Start& start) {
           fit_c = std::move(fit_n);
           phi_c = phi_n;
           P_c = P_post;
+          relinearisations = 0;
           break;
         }
         UtAction action;
@@ -722,6 +742,19 @@ UtSummary UtCalibration::run_local(const Start& start) {
         summary.rejected_steps += 1;
         rec.rejected += 1;
         log_debug("UT: {}", action.describe());
+        if (rec.rejected > options_.max_rejections && relinearisations < kMaxRelinearisations) {
+          ++relinearisations;
+          rec.eta_mean = eta_c;
+          P_c = P_c * (kRelinearise * kRelinearise);
+          lambda = 0.0;
+          nu = 2.0;
+          UtAction relin;
+          relin.iteration = it;
+          relin.spread_factor = kRelinearise;
+          summary.actions.push_back(relin);
+          log_debug("UT: {}", relin.describe());
+          break;
+        }
         if (rec.rejected > options_.max_rejections) {
           rec.eta_mean = eta_c;
           summary.termination = UtTermination::kDiverged;

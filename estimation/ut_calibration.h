@@ -22,7 +22,9 @@
 //    P+ = P0 - K (A P0 A^T + R) K^T. Damped by Levenberg-Marquardt (Nielsen 1999, IMM-REP-1999-05):
 //    the step d solves (A^T A + P0^-1 + lambda P0^-1) d = -grad Phi_lin; a candidate whose Phi is
 //    not below Phi(eta_c) (or whose centre run fails) is rejected and lambda raised; no acceptable
-//    step after max_rejections tries ends the run (kDiverged). P+ at the last linearisation is the
+//    step after max_rejections tries re-linearises the centre on a quarter of the spread (up to 3
+//    times in a row), then ends the run (kDiverged). Converged: the damped step is below tolerance
+//    and the undamped one promises a decrease of Phi below 0.5 (1 in chi^2). P+ at the last linearisation is the
 //    Gauss-Newton Laplace covariance (P0^-1 + J^T R^-1 J)^-1 as sample_scale -> 0.
 //  - kOneShot: one update from the prior, z_ref = z_bar (the paper's method).
 //  - kIterateKeepSpread: re-centre at eta+ and sample again with the PRIOR covariance P0; z_ref =

@@ -552,7 +552,8 @@ TEST(UtCalibration, MapModeRejectsAFailedCandidateAndDampsInsteadOfAborting) {
 
 TEST(UtCalibration, MapModeEndsDivergedWhenNoDampedStepIsAcceptable) {
   // Linear z = t with data at 3, but the model fails for t > 0.1: with one rejection allowed the
-  // halved step still fails, so no acceptable step exists and the run says so.
+  // halved step still fails, so no acceptable step exists and the run says so, after re-linearising
+  // the centre three times on a smaller spread (each time two rejected candidates).
   Map h = [](const Eigen::VectorXd& t, Eigen::Ref<Eigen::VectorXd> z) {
     if (t(0) > 0.1) return model::Status::Error(model::StatusCode::kDiverged, "Newton failed");
     z(0) = t(0);
@@ -566,7 +567,12 @@ TEST(UtCalibration, MapModeEndsDivergedWhenNoDampedStepIsAcceptable) {
                           .run();
   EXPECT_EQ(s.termination, UtTermination::kDiverged) << s.message;
   EXPECT_FALSE(s.ok());
-  EXPECT_EQ(s.rejected_steps, 2);
+  EXPECT_EQ(s.rejected_steps, 2 * (1 + 3));
+  int relinearisations = 0;
+  for (const auto& a : s.actions) {
+    relinearisations += a.kind == UtAction::Kind::kShrinkAndRetry && a.failed_members.empty();
+  }
+  EXPECT_EQ(relinearisations, 3);
   EXPECT_EQ(s.eta_mean(0), 0.0);  // the prior mean, the last accepted centre
   EXPECT_NE(s.message.find("no step lowers the MAP objective"), std::string::npos);
 }
