@@ -123,11 +123,18 @@ ClinicalIndices clinical_indices(const Eigen::Ref<const Eigen::VectorXd>& volume
       // End-diastole is the largest volume of the filling frames. With noisy frames the overall
       // maximum can fall in isovolumic contraction, where the volume is the same to within the
       // noise but the pressure is already rising (an "EDP" of 65 mmHg seen on the foreign bench),
-      // so the frames at or above mid-pressure (contraction, ejection, relaxation) are left out.
+      // so the frames at or above mid-pressure (contraction, ejection, relaxation) are left out,
+      // and so are the frames on the isovolumic rise below it: those whose pressure rose from the
+      // previous frame (cyclically) by more than a quarter of the steepest frame-to-frame rise
+      // (an "EDP" of 50 mmHg on the one-fibre healthy case, frame 2, 42 mmHg above frame 1).
       const double mid = 0.5 * (pressure.minCoeff() + pressure.maxCoeff());
+      const Eigen::Index n = pressure.size();
+      auto rise = [&](Eigen::Index k) { return pressure(k) - pressure((k + n - 1) % n); };
+      double steepest = 0.0;
+      for (Eigen::Index k = 0; k < n; ++k) steepest = std::max(steepest, rise(k));
       double best = -std::numeric_limits<double>::infinity();
       for (Eigen::Index k = 0; k < volume.size(); ++k) {
-        if (pressure(k) < mid && volume(k) > best) {
+        if (pressure(k) < mid && rise(k) <= 0.25 * steepest && volume(k) > best) {
           best = volume(k);
           ed = k;
         }

@@ -74,6 +74,11 @@ TEST(FitReport, ClinicalIndicesOfAnAnalyticBeatAreExact) {
   p_noisy(1) = 65 * kMmHg;
   EXPECT_NEAR(clinical_indices(v_noisy, p_noisy).edp, 5 * kMmHg, 1e-9);
 
+  // The same frame on the isovolumic rise but still below mid-pressure (50 mmHg, 45 above the
+  // frame before, the steepest rise of this beat being 45): also not end-diastole.
+  p_noisy(1) = 50 * kMmHg;
+  EXPECT_NEAR(clinical_indices(v_noisy, p_noisy).edp, 5 * kMmHg, 1e-9);
+
   // Fitted curves 10 % larger in volume: errors fitted - observed.
   const auto obs = curves(t, {"V_lv", "P_lv"}, {"m^3", "Pa"}, {v, p}, {2 * kMl, 3 * kMmHg});
   Eigen::VectorXd z = obs.y;
