@@ -5,6 +5,7 @@
 #include "observers/global_indices.h"
 
 #include <array>
+#include <cstdint>
 #include <sstream>
 #include <utility>
 
@@ -224,6 +225,24 @@ SensitivitySetup parse_sensitivity(const Config& config) {
   }
   s.set_ensemble(parse_ensemble(node["ensemble"]));
   parse_methods(node, seed, s);
+  // The design's size in 64 bits: a Sobol' N of 2^30 with 12 parameters is 1.5e10 runs, which
+  // overflowed the int run count (issue: a Sobol' N so large that the sample count overflows).
+  const std::int64_t p = s.prior.size();
+  std::int64_t runs = 2 * p + 1;
+  const char* key = nullptr;
+  if (s.method == SensitivityMethod::kMorris) {
+    runs = static_cast<std::int64_t>(s.morris.trajectories) * (p + 1);
+    key = "trajectories";
+  } else if (s.method == SensitivityMethod::kSobol) {
+    runs = static_cast<std::int64_t>(s.sobol.base_samples) * (p + 2);
+    key = "N";
+  }
+  constexpr std::int64_t kMaxRuns = 100'000'000;  // ~10 days of 1 s simulations on 100 cores
+  if (runs > kMaxRuns) {
+    const ConfigNode where = key ? node[to_string(s.method)][key] : node["method"];
+    where.fail("the design would run " + std::to_string(runs) + " simulations, more than " +
+               std::to_string(kMaxRuns) + "; choose a smaller " + (key ? key : "design"));
+  }
   return s;
 }
 

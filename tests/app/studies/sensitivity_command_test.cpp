@@ -205,6 +205,9 @@ TEST(SensitivityCommand, BadConfigsGiveLocatedErrorsAndExitTwo) {
       {head + "  method: oat\n  parameters:\n    V_ed: {relative: 1.5}\n", "bad.yaml:6:", "(0, 1)"},
       {head + "  method: oat\n  outputs: [EDV, EFF]\n  parameters:\n    V_ed: {relative: 0.1}\n", "bad.yaml:5:",
        "EFF"},
+      // N = 2^30 with the 3 Ishigami inputs: 5.4e9 runs, beyond an int (it overflowed before).
+      {head + "  method: sobol\n  model: ishigami\n  sobol: {N: 1073741824}\n", "bad.yaml:6:",
+       "the design would run 5368709120 simulations, more than 100000000; choose a smaller N"},
   };
   for (const auto& c : cases) {
     const CliRun r = run_study(dir, "bad.yaml", c.yaml, false);
