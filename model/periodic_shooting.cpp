@@ -101,7 +101,8 @@ ShootingResult find_periodic_state(const VectorXd& x0, const BeatMap& beat,
   // (Dowell & Jarratt 1971, BIT 11:168), which keeps its superlinear rate when G is steep on one
   // side of a kink and flat on the other: where the watchdog came back without progress, the
   // periodic state sits just past such a kink, and Newton steps from either side overshoot it.
-  // Takes the point with the smallest |G| if it decreases |G| (Armijo), leaving its beat recorded.
+  // Takes the point with the smallest |G| if it decreases |G| (Armijo), leaving its beat recorded,
+  // and returns its lambda (0: no step; the full step lambda = 1 has then been tried).
   auto root_on_ray = [&](VectorXd& x_io, const VectorXd& dz, const VectorXd& s, const VectorXd& r,
                          BeatOutcome& base_io) {
     const double r_norm = r.norm();
@@ -123,9 +124,9 @@ ShootingResult find_periodic_state(const VectorXd& x0, const BeatMap& beat,
       return true;
     };
     double lo = 0.0, phi_lo = 1.0, hi = 1.0, phi_hi = 0.0;
-    if (res.beats >= o.max_beats || !phi_at(1.0, &phi_hi) || !(phi_hi < 0.0)) return false;
+    const bool overshoot = phi_at(1.0, &phi_hi) && phi_hi < 0.0;
     int side = 0;
-    for (int k = 0; k < 30 && res.beats < o.max_beats && best_norm > 1e-3 * r_norm &&
+    for (int k = 0; overshoot && k < 30 && res.beats < o.max_beats && best_norm > 1e-3 * r_norm &&
                     hi - lo > 1e-12;
          ++k) {
       double lam = hi - phi_hi * (hi - lo) / (phi_hi - phi_lo);
@@ -147,10 +148,10 @@ ShootingResult find_periodic_state(const VectorXd& x0, const BeatMap& beat,
         side = 1;
       }
     }
-    if (!(best_lam > 0.0 && best_norm <= (1.0 - 1e-4 * best_lam) * r_norm)) return false;
+    if (!(best_lam > 0.0 && best_norm <= (1.0 - 1e-4 * best_lam) * r_norm)) return 0.0;
     x_io += best_lam * dz.cwiseProduct(s);
     base_io = best_lam == last_lam ? std::move(best) : run(x_io, true);
-    return base_io.status.ok();
+    return base_io.status.ok() ? best_lam : 0.0;
   };
 
   while (true) {
@@ -198,12 +199,19 @@ ShootingResult find_periodic_state(const VectorXd& x0, const BeatMap& beat,
       const double step = max_abs(*dz);
       // Backtracking on |G|_2 (Armijo constant 1e-4, halving). A step below the tolerance is the
       // last one: it is taken whole and its beat is the periodic beat.
-      if ((search_ray || !free_step) && watching == 0 && step > o.tolerance) {
+      // The ray search evaluates the full step first; backtracking then starts at one half.
+      bool full_step_tried = false;
+      if ((search_ray || !free_step) && watching == 0 && step > o.tolerance &&
+          res.beats < o.max_beats) {
         search_ray = false;
-        moved = root_on_ray(x, *dz, s, r, base);
+        full_step_tried = true;
+        const double taken = root_on_ray(x, *dz, s, r, base);
+        moved = taken > 0.0;
+        if (taken == 1.0) free_step = true;  // a full Newton step re-arms the watchdog
       }
-      double lambda = 1.0;
-      for (int ls = 0; ls < 6 && !moved && res.beats < o.max_beats; ++ls, lambda *= 0.5) {
+      double lambda = full_step_tried ? 0.5 : 1.0;
+      for (int ls = full_step_tried ? 1 : 0; ls < 6 && !moved && res.beats < o.max_beats;
+           ++ls, lambda *= 0.5) {
         const VectorXd xt = x + lambda * dz->cwiseProduct(s);
         BeatOutcome trial = run(xt, true);
         if (!trial.status.ok()) continue;

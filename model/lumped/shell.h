@@ -19,6 +19,7 @@
 #include <numbers>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace sigmaheart::model::lumped::shell {
@@ -110,38 +111,39 @@ template <class V, class M, class Full, class Eval>
 int damped_newton(const Shell& m, double h, V& u, V& r, M& J, Full& full, Eval&& eval,
                   const SphereOptions& o) {
   constexpr int kMaxHalvings = 10;
+  using std::swap;
+  // Trial and best buffers, allocated once per solve; an improving trial is swapped in, not copied
+  // (the regional model's J is dense, 56 x 56 with 17 patches).
+  V ut = u, rt = r, best_u = u, best_r = r;
+  M Jt = J, best_J = J;
+  Full ft = full, best_full = full;
   for (int it = 1; it <= o.newton_max_iterations; ++it) {
     if (!r.allFinite()) return -1;
     const V du = J.partialPivLu().solve(-r);
     if (!du.allFinite()) return -1;
     const double f0 = r.squaredNorm();
-    V best_u = u, best_r = r, step = du;
-    M best_J = J;
-    Full best_full = full;
-    double best_f = std::numeric_limits<double>::infinity();
+    double best_f = std::numeric_limits<double>::infinity(), best_lambda = 1.0;
     double lambda = 1.0;
     for (int k = 0; k <= kMaxHalvings; ++k, lambda *= 0.5) {
-      V ut = u + lambda * du, rt = r;
-      M Jt = J;
-      Full ft = full;
+      ut = u + lambda * du;
       if (!eval(ut, rt, Jt, ft) || !rt.allFinite()) continue;
       const double f = rt.squaredNorm();
       if (f < best_f) {
         best_f = f;
-        best_u = ut;
-        best_r = rt;
-        best_J = Jt;
-        best_full = ft;
-        step = lambda * du;
+        best_lambda = lambda;
+        swap(best_u, ut);
+        swap(best_r, rt);
+        swap(best_J, Jt);
+        swap(best_full, ft);
       }
       if (f <= (1.0 - 2e-4 * lambda) * f0) break;
     }
     if (!(best_f < std::numeric_limits<double>::infinity())) return -1;  // no physical trial
-    u = best_u;
-    r = best_r;
-    J = best_J;
-    full = best_full;
-    if (newton_converged(m, h, u, step, r, o.newton_tolerance)) return it;
+    swap(u, best_u);
+    swap(r, best_r);
+    swap(J, best_J);
+    swap(full, best_full);
+    if (newton_converged(m, h, u, V(best_lambda * du), r, o.newton_tolerance)) return it;
   }
   return -1;
 }
