@@ -44,15 +44,10 @@ void parse_file_observations(const Config& config, const ConfigNode& obs,
                              const std::vector<model::Channel>& sim_channels,
                              const std::filesystem::path& file_override, CalibrationProblem& out) {
   const ConfigNode file_node = file_override.empty() ? obs["file"] : obs;
-  std::filesystem::path path =
-      file_override.empty() ? std::filesystem::path(file_node.as<std::string>()) : file_override;
-  if (path.is_relative()) {
-    path = std::filesystem::path(config.file.file()).parent_path() / path;
-  }
-  if (!std::filesystem::exists(path)) {
-    file_node.fail("observation file '" + path.string() + "' does not exist (paths are relative "
-                   "to the config file)");
-  }
+  const std::filesystem::path path = input_file(
+      file_node,
+      file_override.empty() ? std::filesystem::path(file_node.as<std::string>()) : file_override,
+      std::filesystem::path(config.file.file()).parent_path(), "observation file");
   io::ObservationCurves curves = io::read_observation_csv(path);
   // Missing frames (empty or NaN cells) are skipped; the others keep the full record's period.
   observers::BeatOptions measured_beat = observers::measured_frames();

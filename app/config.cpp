@@ -51,15 +51,7 @@ Config parse_common(ConfigFile file, const std::filesystem::path& path,
 Config load_with_overrides(ConfigFile file, const std::filesystem::path& path,
                            const std::vector<std::string>& overrides,
                            const model::ModelRegistry& models, const ConfigSections& sections) {
-  for (const auto& assignment : overrides) {
-    const bool quote = assignment.find_first_of(" \t") != std::string::npos;
-    const std::string origin = quote ? "--set '" + assignment + "'" : "--set " + assignment;
-    const auto eq = assignment.find('=');
-    if (eq == std::string::npos || eq == 0) {
-      throw InputError(Location{origin, 0, 0}, "expected key=value, e.g. --set sigma0=1.5e5");
-    }
-    file.set(expand_override_key(assignment.substr(0, eq)), assignment.substr(eq + 1), origin);
-  }
+  apply_overrides(file, overrides);
   return parse_common(std::move(file), path, models, sections);
 }
 
@@ -130,6 +122,46 @@ SimulatorSection parse_simulator_section(const ConfigNode& node,
         value.overridden() ? ValueSource::kOverride : ValueSource::kConfig;
   }
   return s;
+}
+
+void apply_overrides(ConfigFile& file, const std::vector<std::string>& overrides) {
+  for (const auto& assignment : overrides) {
+    const bool quote = assignment.find_first_of(" \t") != std::string::npos;
+    const std::string origin = quote ? "--set '" + assignment + "'" : "--set " + assignment;
+    const auto eq = assignment.find('=');
+    if (eq == std::string::npos || eq == 0) {
+      throw InputError(Location{origin, 0, 0}, "expected key=value, e.g. --set sigma0=1.5e5");
+    }
+    file.set(expand_override_key(assignment.substr(0, eq)), assignment.substr(eq + 1), origin);
+  }
+}
+
+std::filesystem::path input_file(const ConfigNode& at, std::filesystem::path path,
+                                 const std::filesystem::path& base, const std::string& what) {
+  if (path.empty()) at.fail("expected the path of the " + what + ", got nothing");
+  if (path.is_relative()) path = base / path;
+  std::error_code ec;
+  const auto status = std::filesystem::status(path, ec);
+  if (!std::filesystem::exists(status)) {
+    std::string relative_to = "the working directory";
+    if (!base.empty()) {
+      relative_to.assign(1, '\'').append(base.string()).push_back('\'');  // not "'" + s + "'", which
+      // trips a false -Wrestrict warning of GCC 12
+    }
+    at.fail(what + " '" + path.string() + "' does not exist (paths are relative to " + relative_to +
+            ")");
+  }
+  if (!std::filesystem::is_regular_file(status)) {
+    at.fail(what + " '" + path.string() + "' is " +
+            (std::filesystem::is_directory(status) ? "a directory" : "not a regular file") +
+            "; expected a file");
+  }
+  return path;
+}
+
+Config parse_config_file(ConfigFile file, const std::filesystem::path& path,
+                         const model::ModelRegistry& models, const ConfigSections& sections) {
+  return parse_common(std::move(file), path, models, sections);
 }
 
 Config load_config(const std::filesystem::path& path, const std::vector<std::string>& overrides,

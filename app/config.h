@@ -94,6 +94,21 @@ Config parse_config(const std::string& text, const std::string& file_name,
                     const model::ModelRegistry& models = model::builtin_models(),
                     const ConfigSections& sections = builtin_config_sections());
 
+// Parses the sections of an already loaded file (overrides applied with ConfigFile::set).
+// `sigmaheart validate` parses again after removing an erroneous entry (ConfigFile::erase_at).
+Config parse_config_file(ConfigFile file, const std::filesystem::path& path,
+                         const model::ModelRegistry& models = model::builtin_models(),
+                         const ConfigSections& sections = builtin_config_sections());
+
+// Applies `--set key=value` overrides to a loaded file (InputError at the override).
+void apply_overrides(ConfigFile& file, const std::vector<std::string>& overrides);
+
+// The file named by a config value: `path` made relative to `base` (the directory of the file
+// that names it), which must exist and be a regular file; otherwise an InputError at `at` that
+// says which `what` ("observation file") was expected.
+std::filesystem::path input_file(const ConfigNode& at, std::filesystem::path path,
+                                 const std::filesystem::path& base, const std::string& what);
+
 // The dotted path an override key stands for ("sigma0" -> "simulator.parameters.sigma0").
 std::string expand_override_key(const std::string& key);
 

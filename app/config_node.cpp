@@ -301,7 +301,42 @@ void reject_duplicate_keys(const YAML::Node& node, const std::string& file_name)
     for (const YAML::Node& item : node) reject_duplicate_keys(item, file_name);
   }
 }
+bool starts_at(const YAML::Node& node, int line, int column) {
+  const YAML::Mark m = node.Mark();
+  return !m.is_null() && m.line + 1 == line && (column <= 0 || m.column + 1 == column);
+}
+
+// Removes the innermost map entry or sequence item of `node` written at line:column (erase_at)
+// and returns its key, "" when there is none.
+std::string erase_written_at(YAML::Node node, int line, int column) {
+  if (node.IsMap()) {
+    for (auto it = node.begin(); it != node.end(); ++it) {
+      if (std::string inner = erase_written_at(it->second, line, column); !inner.empty()) {
+        return inner;
+      }
+      if (starts_at(it->first, line, column) || starts_at(it->second, line, column)) {
+        const YAML::Node key = it->first;
+        node.remove(key);
+        return key.IsScalar() ? key.Scalar() : std::string("?");
+      }
+    }
+  } else if (node.IsSequence()) {
+    for (std::size_t i = 0; i < node.size(); ++i) {
+      if (std::string inner = erase_written_at(node[i], line, column); !inner.empty()) return inner;
+      if (starts_at(node[i], line, column)) {
+        node.remove(i);
+        return "[" + std::to_string(i) + "]";
+      }
+    }
+  }
+  return "";
+}
 }  // namespace
+
+std::string ConfigFile::erase_at(const Location& where) {
+  if (where.file != file() || where.line <= 0) return "";
+  return erase_written_at(root_, where.line, where.column);
+}
 
 ConfigFile ConfigFile::parse(const std::string& text, const std::string& file_name) {
   ConfigFile f;
@@ -358,7 +393,8 @@ bool ConfigFile::overridden(const std::string& dotted_path) const {
 }
 
 ConfigNode ConfigFile::root() const {
-  return ConfigNode(root_, origin_, "", Location{origin_->file, 0, 0});
+  // An empty file (or one of comments only) has no node to point at: its errors point at 1:1.
+  return ConfigNode(root_, origin_, "", Location{origin_->file, 1, 1});
 }
 
 void ConfigFile::set(const std::string& dotted_path, const std::string& value_text,

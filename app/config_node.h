@@ -155,6 +155,12 @@ class ConfigFile {
   void set(const std::string& dotted_path, const std::string& value_text,
            const std::string& origin);
 
+  // Removes the map entry (key and value) or the sequence item written at `where`, the innermost
+  // one when several start there (a block map starts where its first key does), and returns its
+  // key ("[i]" for an item); "" when `where` is not a position in this file or nothing is written
+  // there. `sigmaheart validate` uses it to go on past an error (app/commands/validate.cpp).
+  std::string erase_at(const Location& where);
+
   const std::string& file() const;
   const std::string& text() const { return text_; }
   // The `--set` origins applied, in order (for provenance).

@@ -85,12 +85,9 @@ void parse_observations(const Config& config, const ConfigNode& obs, Personalize
   const auto sim = config.simulator.make();
   const auto sim_channels = sim->channels();
   const ConfigNode file_node = obs.require_child("file");
-  std::filesystem::path path = file_node.as<std::string>();
-  if (path.is_relative()) path = std::filesystem::path(config.file.file()).parent_path() / path;
-  if (!std::filesystem::exists(path)) {
-    file_node.fail("observation file '" + path.string() +
-                   "' does not exist (paths are relative to the config file)");
-  }
+  const std::filesystem::path path =
+      input_file(file_node, file_node.as<std::string>(),
+                 std::filesystem::path(config.file.file()).parent_path(), "observation file");
   const io::ObservationCurves curves = io::read_observation_csv(path);
   out.observation_file = path;
   const model::Trajectory& tr = curves.trajectory;

@@ -36,13 +36,10 @@ CaseEntry parse_case(const Config& config, const ConfigNode& node, const std::fi
   c.group = node.require<std::string>("group");
   if (c.name.empty()) node["name"].fail("expected a non-empty case name");
   if (c.group.empty()) node["group"].fail("expected a non-empty group label");
-  c.file = node.require<std::string>("file");
-  if (c.file.is_relative()) c.file = base / c.file;
-  c.file = std::filesystem::absolute(c.file).lexically_normal();
-  if (!std::filesystem::exists(c.file)) {
-    node["file"].fail("observation file '" + c.file.string() +
-                      "' does not exist (paths are relative to the file that lists the cases)");
-  }
+  c.file = std::filesystem::absolute(input_file(node.require_child("file"),
+                                                node.require<std::string>("file"), base,
+                                                "observation file"))
+               .lexically_normal();
   const ConfigNode truth = node["truth"];
   if (truth.defined()) {
     if (!truth.is_map()) truth.fail("expected a map of parameter name -> value");
@@ -67,9 +64,7 @@ std::vector<CaseEntry> parse_cases(const Config& config) {
   std::optional<ConfigFile> listed;  // keeps the other file's tree alive while its nodes are read
   std::optional<ConfigNode> from_file;
   if (given.is_scalar()) {
-    std::filesystem::path path = given.as<std::string>();
-    if (path.is_relative()) path = base / path;
-    if (!std::filesystem::exists(path)) given.fail("case list '" + path.string() + "' does not exist");
+    const std::filesystem::path path = input_file(given, given.as<std::string>(), base, "case list");
     listed = ConfigFile::load(path);
     base = path.parent_path();
     from_file.emplace(listed->root().require_child("cases"));

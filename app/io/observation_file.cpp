@@ -259,11 +259,11 @@ ObservationCurves parse_observation_csv(std::istream& in, const std::string& sou
   }
   if (in.bad()) throw fail(0, 0, "read error");
   if (columns.empty()) {
-    throw fail(line_no > 0 ? 1 : 0, 0,
+    throw fail(1, 1,
                "missing header: expected a first line such as " + std::string(kHeaderExample));
   }
   if (static_cast<int>(rows.size()) < kMinFrames) {
-    throw fail(last_line, 0, "too few rows: expected at least " + std::to_string(kMinFrames) +
+    throw fail(last_line, 1, "too few rows: expected at least " + std::to_string(kMinFrames) +
                                  " data rows (one per frame), got " + std::to_string(rows.size()));
   }
 
