@@ -78,9 +78,17 @@ double interpolate_periodic(const Eigen::VectorXd& t, const Eigen::VectorXd& x, 
   return (1 - w) * x(k) + w * x(k + 1);
 }
 
+constexpr int kMaxFrames = 100000;  // a 1 s beat at 10 us: far beyond any measurement
+
 int run_synthesize(const SynthesizeOptions& o, CommandContext& ctx) {
   const Config config = load_config(o.config, o.overrides, *ctx.models, *ctx.sections);
-  if (o.frames < 3) throw InputError(Location{"--frames"}, "expected at least 3 frames");
+  // Frames are interpolated from the simulated beat: more than one per output sample adds
+  // nothing, and 2e9 of them ran out of memory (issue 12).
+  if (o.frames < 3 || o.frames > kMaxFrames) {
+    throw InputError(Location{"--frames"}, "expected 3 to " + std::to_string(kMaxFrames) +
+                                               " frames per beat (cine MRI gives about 30), got " +
+                                               std::to_string(o.frames));
+  }
   auto simulator = config.simulator.make();
   const auto sim_channels = simulator->channels();
 

@@ -260,6 +260,17 @@ TEST(Fuzz, DamagedObservationFiles) {
   EXPECT_GT(refused, static_cast<int>(variants.size()) / 2);
 }
 
+// Extreme flags: a count that would not fit in memory is refused at the flag (it ended in
+// std::bad_alloc).
+TEST(Fuzz, EnormousFrameCountIsRefusedAtTheFlag) {
+  const fs::path dir = scratch_dir();
+  const Outcome o = run({"synthesize", (kSource / "configs/healthy.yaml").string(), "--frames",
+                         "2000000000", "-o", (dir / "x.csv").string()});
+  EXPECT_EQ(o.code, 2);
+  EXPECT_NE(o.err.find("error: --frames: expected 3 to 100000 frames"), std::string::npos) << o.err;
+  EXPECT_FALSE(fs::exists(dir / "x.csv"));
+}
+
 // validate reports every error it finds, each at its place, and ends with the count.
 TEST(Validate, ReportsEveryError) {
   const fs::path dir = scratch_dir();
