@@ -4,10 +4,14 @@
 // lumped sphere (3 parameters, star rule, 7 members + centre + fit). And the hand-out of members
 // of unequal cost (1 ms and 10 ms, the dear ones first) on 2 threads, dynamic vs the fixed split:
 // the `efficiency` counter is (sum of member costs) / (threads x wall time).
+// Under mpirun the same unequal members are spread over the ranks (one thread each) by the
+// self-scheduling counter of the worker pool; the efficiency is then over ranks x wall time:
 //   build/bench/ensemble_bench --benchmark_filter=Lumped
 //   build/bench/ensemble_bench --benchmark_filter=UnequalCost
+//   mpirun -np 2 build/bench/ensemble_bench --benchmark_filter=UnequalCostRanks
 #include "estimation/ensemble.h"
 #include "estimation/forward_model.h"
+#include "estimation/mpi.h"
 #include "estimation/ut_calibration.h"
 #include "model/lumped/sphere.h"
 
@@ -111,13 +115,13 @@ BENCHMARK(BM_EnsembleCheapModel)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark:
 // on 2 threads gives one thread 44 ms and the other 8 ms (efficiency 52 / 88 = 0.59); dynamic
 // hand-out approaches 26 ms (efficiency ~1). Args: threads, schedule (0 dynamic, 1 fixed),
 // cost (0 spinning, 1 sleeping: use it on a loaded machine, where spinning threads share cores).
-void BM_EnsembleUnequalCost(benchmark::State& state) {
+// The members of the unequal-cost benchmarks, `workers` threads or ranks of one thread each.
+void run_unequal_cost(benchmark::State& state, EnsembleOptions o, int workers) {
   const int members = 16;
   Eigen::MatrixXd thetas(members, 1);
   for (int i = 0; i < members; ++i) thetas(i, 0) = i < 4 ? 10.0 : 1.0;
   const double serial_ms = thetas.sum();
   const SpinModel proto(state.range(2) == 1);
-  EnsembleOptions o = threads(static_cast<int>(state.range(0)));
   o.schedule = state.range(1) == 0 ? estimation::parallel::Schedule::kDynamic
                                    : estimation::parallel::Schedule::kFixed;
   estimation::Ensemble ensemble(proto, o);
@@ -130,7 +134,11 @@ void BM_EnsembleUnequalCost(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * members);
   state.SetLabel(estimation::parallel::to_string(o.schedule));
   state.counters["efficiency"] = serial_ms * static_cast<double>(state.iterations()) /
-                                 (static_cast<double>(state.range(0)) * wall_ms);
+                                 (static_cast<double>(workers) * wall_ms);
+}
+
+void BM_EnsembleUnequalCost(benchmark::State& state) {
+  run_unequal_cost(state, threads(static_cast<int>(state.range(0))), static_cast<int>(state.range(0)));
 }
 BENCHMARK(BM_EnsembleUnequalCost)
     ->ArgsProduct({{1, 2}, {0, 1}, {0, 1}})
@@ -202,6 +210,44 @@ BENCHMARK(BM_UtCalibrationLumpedSphereOneShot)
     ->UseRealTime()
     ->Unit(benchmark::kMillisecond);
 
+// The same members over the ranks of mpirun, one thread per rank (state.range(0) is unused: the
+// rank count). Registered only under mpirun with several ranks, with a fixed iteration count so
+// that every rank makes the same collective calls.
+estimation::parallel::Communicator* g_world = nullptr;
+
+void BM_EnsembleUnequalCostRanks(benchmark::State& state) {
+  EnsembleOptions o = threads(1);
+  o.communicator = g_world;
+  run_unequal_cost(state, o, g_world->size());
+}
+
+// Ranks other than 0 run the same benchmarks (their collective calls must match) and print nothing.
+class QuietReporter final : public benchmark::BenchmarkReporter {
+ public:
+  bool ReportContext(const Context&) override { return true; }
+  void ReportRuns(const std::vector<Run>&) override {}
+};
+
 }  // namespace
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) {
+  estimation::MpiSession session(&argc, &argv);
+  benchmark::Initialize(&argc, argv);
+  if (session.world().size() > 1) {
+    g_world = &session.world();
+    benchmark::RegisterBenchmark("BM_EnsembleUnequalCostRanks", BM_EnsembleUnequalCostRanks)
+        ->ArgsProduct({{session.world().size()}, {0, 1}, {0, 1}})
+        ->ArgNames({"ranks", "fixed", "sleep"})
+        ->Iterations(20)
+        ->UseRealTime()
+        ->Unit(benchmark::kMillisecond);
+  }
+  if (session.world().root()) {
+    benchmark::RunSpecifiedBenchmarks();
+  } else {
+    QuietReporter quiet;
+    benchmark::RunSpecifiedBenchmarks(&quiet);
+  }
+  benchmark::Shutdown();
+  return 0;
+}
