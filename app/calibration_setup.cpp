@@ -181,8 +181,8 @@ estimation::PriorParameter parse_estimated(const Config& config, const std::stri
 
 estimation::UtGlobalStart parse_global_start(const ConfigNode& node) {
   estimation::UtGlobalStart g;
-  if (!node.is_map()) node.fail("expected {samples: N, keep: k, width: 3}");
-  node.check_keys({"samples", "keep", "width"});
+  if (!node.is_map()) node.fail("expected {samples: N, keep: k, width: 3, probe_iterations: 0}");
+  node.check_keys({"samples", "keep", "width", "probe_iterations"});
   g.samples = node.require_child("samples").as<int>();
   if (g.samples < 1) node["samples"].fail("expected at least 1 screened point");
   g.keep = node.optional<int>("keep", g.keep);
@@ -191,6 +191,10 @@ estimation::UtGlobalStart parse_global_start(const ConfigNode& node) {
   }
   g.width = node.optional<double>("width", g.width);
   if (!(g.width > 0)) node["width"].fail("expected a positive half-width in prior standard deviations");
+  g.probe_iterations = node.optional<int>("probe_iterations", g.probe_iterations);
+  if (g.probe_iterations < 0) {
+    node["probe_iterations"].fail("expected 0 (every local run to the end) or a positive count");
+  }
   return g;
 }
 

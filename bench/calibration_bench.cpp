@@ -48,11 +48,17 @@ struct ForeignProblem {
 };
 
 // Args: number of estimated parameters (5 or 12); estimator (0: the UT as the config sets it,
-// 1: the Ceres reference as the config sets it: a single start from the prior, since neither
-// config has a global_start).
+// 1: the Ceres reference as the config sets it); start (0: as the config sets it, i.e. the
+// 12-parameter config's global start of 32 screened points and 4 local runs; 1: one local run
+// from the prior mean).
 void BM_CalibrateForeign(benchmark::State& state) {
   ForeignProblem f(static_cast<int>(state.range(0)));
   const bool ceres = state.range(1) == 1;
+  if (state.range(2) == 1) {
+    f.problem.options.global_start = {};
+    f.problem.least_squares.screen_points = 0;
+    f.problem.least_squares.starts = 1;
+  }
   int simulations = 0;
   double objective = 0;
   bool converged = false;
@@ -80,8 +86,9 @@ void BM_CalibrateForeign(benchmark::State& state) {
   state.SetLabel(std::string(ceres ? "Ceres, " : "UT, ") + kCase + ", " + termination);
 }
 BENCHMARK(BM_CalibrateForeign)
-    ->ArgNames({"params", "ceres"})
-    ->ArgsProduct({{5, 12}, {0, 1}})
+    ->ArgNames({"params", "ceres", "single"})
+    ->Args({5, 0, 0})->Args({5, 1, 0})
+    ->Args({12, 0, 0})->Args({12, 1, 0})->Args({12, 0, 1})->Args({12, 1, 1})
     ->Iterations(1)->UseRealTime()->Unit(benchmark::kSecond);
 
 }  // namespace

@@ -41,6 +41,14 @@ std::string format_theta(const std::vector<std::string>& names, const Eigen::Vec
   return s.str();
 }
 
+// A number to 3 significant digits, for messages.
+std::string format_number(double x) {
+  std::ostringstream s;
+  s.precision(3);
+  s << x;
+  return s.str();
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
@@ -137,6 +145,18 @@ std::string UtAction::describe() const {
     s << "; rejected, damping raised to lambda = " << spread_factor;
     return s.str();
   }
+  if (kind == Kind::kMirror) {
+    s << "iteration " << iteration << ", attempt " << attempt << ": members [" << join(failed_members)
+      << "] failed; their outputs mirrored through the centre from the opposite points (one-sided slope)";
+    return s.str();
+  }
+  if (kind == Kind::kRevert) {
+    s << "iteration " << iteration << ": members [" << join(failed_members) << "] at the new centre (Phi "
+      << misfit << ") failed after " << attempt << " shrink retries; the step that reached it is rejected, "
+      << "back to the previous centre (Phi " << previous_misfit << "), damping raised to lambda = "
+      << spread_factor;
+    return s.str();
+  }
   if (kind == Kind::kBacktrack) {
     s << "iteration " << iteration << ": the step raised the misfit at the new centre ("
       << previous_misfit << " -> " << misfit << "); step halved (x" << spread_factor << ")";
@@ -169,7 +189,9 @@ std::string UtSummary::brief_report() const {
     << names.size() << " params, " << observation_names.size() << " obs): "
     << to_string(termination) << " after " << iterations.size()
     << (iterations.size() == 1 ? " iteration" : " iterations") << ", " << simulations
-    << " runs, " << failures << " failed, " << actions.size() << " policy actions";
+    << " runs, " << failures << " failed";
+  if (mirrored > 0) s << " (" << mirrored << " sigma points mirrored)";
+  s << ", " << actions.size() << " policy actions";
   if (fit_before && fit_after) {
     s << ", misfit " << fit_before->misfit() << " -> " << fit_after->misfit();
   }
@@ -374,12 +396,36 @@ void classify(UtSummary& s, const UtOptions& o, const Prior& prior, int m) {
   }
 }
 
+// kMap: a failed sigma point i whose mirror j (U_j = -U_i) ran gets the output of the straight
+// line through the centre, z_i = 2 z_c - z_j. Its pair then measures a one-sided slope along that
+// axis (a forward difference instead of a central one); the weights are unchanged, so U w = 0 and
+// U W U^T = I still hold and A = P_tz^T P_c^-1 is exact for a linear h. Only the linearisation
+// uses these outputs (the MAP iteration never takes P_zz as a covariance). False, and rec
+// untouched, when some failed member has no mirror that ran (the policy then shrinks or gives up).
+bool mirror_outputs(const SigmaPoints& sp, const Eigen::VectorXd& z_centre, const std::vector<int>& failed,
+                    UtIteration& rec) {
+  if (!z_centre.allFinite()) return false;
+  std::vector<std::pair<int, int>> pairs;
+  for (int i : failed) {
+    int mirror = -1;
+    for (int j = 0; j < sp.count() && mirror < 0; ++j) {
+      const bool ran = rec.status[static_cast<size_t>(j)].ok();
+      if (j != i && ran && (sp.unit.col(j) + sp.unit.col(i)).isZero(1e-12)) mirror = j;
+    }
+    if (mirror < 0) return false;
+    pairs.emplace_back(i, mirror);
+  }
+  for (const auto& [i, j] : pairs) rec.Z.row(i) = (2.0 * z_centre - rec.Z.row(j).transpose()).transpose();
+  return true;
+}
+
 }  // namespace
 
 struct UtCalibration::Start {
   Eigen::VectorXd eta;             // where the run begins
   std::optional<UtFit> fit;        // the model there, when already run
   std::optional<UtFit> prior_fit;  // the model at the prior mean, when already run
+  int max_iterations = 0;          // > 0: at most this many (a probe), else the options' count
 };
 
 UtSummary UtCalibration::run() {
@@ -392,12 +438,13 @@ UtSummary UtCalibration::run_global() {
   const int p = prior_.size();
   const Objective objective = make_objective(prior_, observations_);
   const UtGlobalStart& g = options_.global_start;
-  // Row 0: the prior mean; rows 1..N: Sobol' points 1..N (point 0 is the box's corner) mapped to
-  // eta0 + width sigma0 (2u - 1).
+  // Row 0: the prior mean; rows 1..N: Sobol' points 2..N+1 mapped to eta0 + width sigma0 (2u - 1)
+  // (point 0 is the box's corner, point 1 its centre, i.e. the prior mean again: screened twice,
+  // it took two of the local runs).
   sensitivity::SobolSequenceOptions so;
   so.dimension = p;
   so.scrambling = sensitivity::Scrambling::kNone;
-  const Eigen::MatrixXd U = sensitivity::SobolSequence(so).points(1, static_cast<std::uint64_t>(g.samples));
+  const Eigen::MatrixXd U = sensitivity::SobolSequence(so).points(2, static_cast<std::uint64_t>(g.samples));
   const Eigen::VectorXd eta0 = prior_.mean_eta();
   const Eigen::VectorXd sigma0 = prior_.std_eta();
   Eigen::MatrixXd eta(g.samples + 1, p);
@@ -432,10 +479,12 @@ UtSummary UtCalibration::run_global() {
   std::vector<UtStart> starts;
   int simulations = static_cast<int>(eta.rows());
   int failures = screen.failures();
+  const bool probing = g.probe_iterations > 0 && g.probe_iterations < options_.max_iterations;
   for (int k = 0; k < g.keep; ++k) {
     const auto i = static_cast<size_t>(order[static_cast<size_t>(k)]);
     const auto row = static_cast<Eigen::Index>(i);
-    UtSummary s = run_local(Start{eta.row(row).transpose(), fits[i], fits[0]});
+    UtSummary s = run_local(
+        Start{eta.row(row).transpose(), fits[i], fits[0], probing ? g.probe_iterations : 0});
     simulations += s.simulations;
     failures += s.failures;
     UtStart st;
@@ -452,11 +501,21 @@ UtSummary UtCalibration::run_global() {
     };
     if (!best || rank(s) < rank(*best)) best = std::move(s);
   }
+  std::string how = "best of " + std::to_string(g.keep) + " local runs";
+  // The best probe goes on from where it stopped (unless it already ended for another reason than
+  // its probe budget), with the full iteration count.
+  if (probing && best->termination == UtTermination::kMaxIterations && best->fit_after) {
+    UtSummary s = run_local(Start{best->eta_mean, best->fit_after, fits[0], 0});
+    simulations += s.simulations;
+    failures += s.failures;
+    best = std::move(s);
+    how = "the best of " + std::to_string(g.keep) + " probes of " +
+          std::to_string(g.probe_iterations) + " iterations continued";
+  }
   best->starts = std::move(starts);
   best->simulations = simulations;
   best->failures = failures;
-  best->message += "; global start: " + std::to_string(g.samples) + " screened, best of " +
-                   std::to_string(g.keep) + " local runs";
+  best->message += "; global start: " + std::to_string(g.samples) + " screened, " + how;
   return *best;
 }
 
@@ -525,11 +584,16 @@ UtSummary UtCalibration::run_local(const Start& start) {
     summary.termination = UtTermination::kNumericalFailure;
     summary.message = "iteration " + std::to_string(it) + ": " + what;
   };
-  // The sigma points of (eta_c, P_c) with the failure policy: fills rec's members; false when the
+  // The sigma points of (eta_c, P_c) with the failure policy (with z_centre, kMap: failed members
+  // whose mirror point ran are mirrored first, mirror_outputs): fills rec's members; false when the
   // policy gave up or P_c has no square root (the summary then says why). With run_center the
-  // centre joins the batch.
+  // centre joins the batch. With revertible (kMap at a centre reached by a step) a policy that
+  // gives up does not abort: the failed members are left in gave_up and the caller rejects the step.
+  std::vector<int> gave_up;
   auto sample = [&](int it, const Eigen::VectorXd& eta_c, const Eigen::MatrixXd& P_c,
-                    UtIteration& rec, bool run_center) {
+                    UtIteration& rec, bool run_center, bool revertible = false,
+                    const Eigen::VectorXd* z_centre = nullptr) {
+    gave_up.clear();
     rec.eta_center = eta_c;
     rec.P_center = P_c;
     bool used_fallback = false;
@@ -576,6 +640,17 @@ UtSummary UtCalibration::run_local(const Start& start) {
       UtAction action;
       action.iteration = it;
       action.attempt = attempt;
+      // The abort policy means what it says: the first failed member ends the run.
+      const bool abort_policy = options_.failure_policy == UtFailurePolicy::kAbort;
+      if (!abort_policy && z_centre && mirror_outputs(sp, *z_centre, failed, rec)) {
+        action.kind = UtAction::Kind::kMirror;
+        action.failed_members = failed;
+        action.spread_factor = factor;
+        summary.actions.push_back(action);
+        summary.mirrored += static_cast<int>(failed.size());
+        log_debug("UT: {}", action.describe());
+        return true;
+      }
       action.failed_members = failed;
       if (options_.failure_policy == UtFailurePolicy::kShrinkAndRetry &&
           attempt < options_.max_retries) {
@@ -586,6 +661,10 @@ UtSummary UtCalibration::run_local(const Start& start) {
         summary.retries += 1;
         log_debug("UT: {}", action.describe());
         continue;
+      }
+      if (revertible && !abort_policy) {
+        gave_up = failed;
+        return false;
       }
       action.kind = UtAction::Kind::kAbort;
       action.spread_factor = factor;
@@ -626,7 +705,9 @@ UtSummary UtCalibration::run_local(const Start& start) {
   Eigen::MatrixXd P_last = P0;
   std::optional<UtFit> first_center_fit = start.fit;
   std::optional<UtFit> last_center_fit;  // kMap: the model at eta_last
-  const int max_iterations = options_.mode == UtMode::kOneShot ? 1 : options_.max_iterations;
+  const int max_iterations = options_.mode == UtMode::kOneShot ? 1
+                             : start.max_iterations > 0     ? start.max_iterations
+                                                            : options_.max_iterations;
 
   if (map) {
     // ---- kMap: damped Gauss-Newton on statistically linearised models (file comment). ----
@@ -647,7 +728,26 @@ UtSummary UtCalibration::run_local(const Start& start) {
     constexpr double kRelinearise = 0.25;
     constexpr int kMaxRelinearisations = 3;
     int relinearisations = 0;
+    // Stationary although the linearised Phi still promises a decrease: over the last kStall
+    // iterations every step was below the tolerance and together they lowered Phi by less than
+    // kNegligibleDecrease. The promise is then the linearisation's, not Phi's (a kink of the
+    // forward map, e.g. a valve event changing step, bounds the slope over the sigma points), and
+    // damped steepest-descent steps have found no more: converged, and the message says so.
+    constexpr int kStall = 5;
+    std::vector<double> phi_history;  // Phi at the start of each iteration
     bool done = false;
+    // The last successful linearisation and its centre: where a rejected centre returns to.
+    struct Linearisation {
+      UtIteration rec;
+      Eigen::VectorXd eta_c;
+      UtFit fit_c;
+      double phi_c;
+      Eigen::MatrixXd P_c, H;
+      Eigen::VectorXd g, eta_gn;
+      Eigen::MatrixXd P_post;
+      double lambda = 0.0, nu = 2.0;  // the damping of the step taken from this centre
+    };
+    std::optional<Linearisation> lin;
     if (!fit_c.status.ok() || !std::isfinite(phi_c)) {
       summary.actions.push_back({UtAction::Kind::kAbort, 0, 0, 1.0, 0.0, 0.0, {-1}});
       abort_with("the starting point (" + format_theta(summary.names, fit_c.theta) +
@@ -660,33 +760,70 @@ UtSummary UtCalibration::run_local(const Start& start) {
       rec.iteration = it;
       rec.center_fit = fit_c;
       rec.objective = phi_c;
-      if (!sample(it, eta_c, P_c, rec, false)) break;
-      const Moments mo = moments(rec);
-      // z ~ A eta + b over the sigma points of the current posterior approximation.
-      const Eigen::MatrixXd A = Eigen::LLT<Eigen::MatrixXd>(P_c).solve(mo.Ptz).transpose();  // m x p
-      const Eigen::VectorXd rw = yw - Lt.solve(fit_c.z);  // whitened residual at the centre
-      // The update from the PRIOR (eta0, P0) with this linearisation.
-      const Eigen::MatrixXd Sw = A * P0 * A.transpose() + Eigen::MatrixXd::Identity(m, m);
-      const Eigen::LDLT<Eigen::MatrixXd> ldlt(Sw);
-      const Eigen::MatrixXd Kw = ldlt.solve(A * P0).transpose();  // p x m
-      const Eigen::VectorXd eta_gn = eta0 + Kw * (rw + A * (eta_c - eta0));
-      Eigen::MatrixXd P_post = P0 - Kw * Sw * Kw.transpose();
-      P_post = 0.5 * (P_post + P_post.transpose()).eval();
-      if (ldlt.info() != Eigen::Success || !eta_gn.allFinite() || !P_post.allFinite()) {
-        numerical_failure(it, "the linearised update is not finite");
+      phi_history.push_back(phi_c);
+      Eigen::MatrixXd H, P_post;
+      Eigen::VectorXd g, eta_gn;
+      if (sample(it, eta_c, P_c, rec, false, lin.has_value(), &fit_c.z)) {
+        const Moments mo = moments(rec);
+        // z ~ A eta + b over the sigma points of the current posterior approximation.
+        const Eigen::MatrixXd A = Eigen::LLT<Eigen::MatrixXd>(P_c).solve(mo.Ptz).transpose();  // m x p
+        const Eigen::VectorXd rw = yw - Lt.solve(fit_c.z);  // whitened residual at the centre
+        // The update from the PRIOR (eta0, P0) with this linearisation.
+        const Eigen::MatrixXd Sw = A * P0 * A.transpose() + Eigen::MatrixXd::Identity(m, m);
+        const Eigen::LDLT<Eigen::MatrixXd> ldlt(Sw);
+        const Eigen::MatrixXd Kw = ldlt.solve(A * P0).transpose();  // p x m
+        eta_gn = eta0 + Kw * (rw + A * (eta_c - eta0));
+        P_post = P0 - Kw * Sw * Kw.transpose();
+        P_post = 0.5 * (P_post + P_post.transpose()).eval();
+        if (ldlt.info() != Eigen::Success || !eta_gn.allFinite() || !P_post.allFinite()) {
+          numerical_failure(it, "the linearised update is not finite");
+          break;
+        }
+        const Eigen::MatrixXd Sc = A * P_c * A.transpose() + Eigen::MatrixXd::Identity(m, m);
+        rec.z_bar = L * mo.zbar;
+        rec.innovation = L * rw;
+        rec.nis = rw.dot(Sc.ldlt().solve(rw));
+        rec.P_zz = L * mo.Pzz * L.transpose();
+        rec.P_tz = mo.Ptz * L.transpose();
+        rec.gain = Lt.transpose().solve(Kw.transpose()).transpose();
+        rec.P = P_post;
+        // Levenberg-Marquardt on the linearised Phi: H d = g with H = A^T A + (1 + lambda) P0^-1.
+        H = A.transpose() * A + P0inv;
+        g = A.transpose() * rw - P0inv * (eta_c - eta0);
+        lin = Linearisation{rec, eta_c, fit_c, phi_c, P_c, H, g, eta_gn, P_post, lambda, nu};
+      } else if (!gave_up.empty() && lin) {
+        // Sigma points at this centre still fail after the shrink retries: the step that reached
+        // it is rejected like a failed candidate (back to the last linearised centre, lambda
+        // raised), so a failed member never aborts a run that has a centre to return to.
+        UtAction action;
+        action.kind = UtAction::Kind::kRevert;
+        action.iteration = it;
+        action.attempt = rec.attempts - 1;
+        action.misfit = phi_c;
+        action.previous_misfit = lin->phi_c;
+        action.failed_members = gave_up;
+        lambda = lin->lambda == 0.0 ? 1.0 : lin->lambda * lin->nu;
+        nu = 2.0 * lin->nu;
+        lin->lambda = lambda;
+        lin->nu = nu;
+        action.spread_factor = lambda;
+        summary.actions.push_back(action);
+        summary.rejected_steps += 1;
+        log_debug("UT: {}", action.describe());
+        eta_c = lin->eta_c;
+        fit_c = lin->fit_c;
+        phi_c = lin->phi_c;
+        P_c = lin->P_c;
+        lin->rec.rejected += 1;
+        rec = lin->rec;
+        rec.iteration = it;
+        H = lin->H;
+        g = lin->g;
+        eta_gn = lin->eta_gn;
+        P_post = lin->P_post;
+      } else {
         break;
       }
-      const Eigen::MatrixXd Sc = A * P_c * A.transpose() + Eigen::MatrixXd::Identity(m, m);
-      rec.z_bar = L * mo.zbar;
-      rec.innovation = L * rw;
-      rec.nis = rw.dot(Sc.ldlt().solve(rw));
-      rec.P_zz = L * mo.Pzz * L.transpose();
-      rec.P_tz = mo.Ptz * L.transpose();
-      rec.gain = Lt.transpose().solve(Kw.transpose()).transpose();
-      rec.P = P_post;
-      // Levenberg-Marquardt on the linearised Phi: H d = g with H = A^T A + (1 + lambda) P0^-1.
-      const Eigen::MatrixXd H = A.transpose() * A + P0inv;
-      const Eigen::VectorXd g = A.transpose() * rw - P0inv * (eta_c - eta0);
       for (int candidate = 0;; ++candidate) {
         const Eigen::VectorXd d = lambda == 0.0 ? Eigen::VectorXd(eta_gn - eta_c)
                                                 : Eigen::VectorXd((H + lambda * P0inv).ldlt().solve(g));
@@ -701,9 +838,21 @@ UtSummary UtCalibration::run_local(const Start& start) {
         // of Phi: converged only when the undamped Gauss-Newton step promises no decrease above
         // kNegligibleDecrease either (its predicted decrease g.d_gn / 2 on the linearised Phi).
         const double gn_decrease = 0.5 * g.dot(eta_gn - eta_c);
-        if (rec.step < options_.tolerance && gn_decrease < kNegligibleDecrease) {
+        const auto n_phi = phi_history.size();
+        const bool stalled = n_phi > static_cast<size_t>(kStall) &&
+                             phi_history[n_phi - 1 - kStall] - phi_c < kNegligibleDecrease &&
+                             std::all_of(summary.iterations.end() - kStall, summary.iterations.end(),
+                                         [&](const UtIteration& r) { return r.step < options_.tolerance; });
+        if (rec.step < options_.tolerance && (gn_decrease < kNegligibleDecrease || stalled)) {
           rec.eta_mean = eta_c;
           summary.termination = UtTermination::kConverged;
+          if (gn_decrease >= kNegligibleDecrease) {
+            summary.message = "stationary: the last " + std::to_string(kStall) +
+                              " iterations lowered Phi by " +
+                              format_number(phi_history[n_phi - 1 - kStall] - phi_c) +
+                              " with steps below the tolerance, where the linearised Phi promised " +
+                              format_number(gn_decrease);
+          }
           done = true;
           break;
         }
@@ -715,6 +864,8 @@ UtSummary UtCalibration::run_local(const Start& start) {
           // Gain ratio of the actual to the predicted decrease (Nielsen 1999, eq. 2.3 update).
           const double predicted = g.dot(d) - 0.5 * d.dot(H * d);
           const double rho = predicted > 0 ? (phi_c - phi_n) / predicted : 0.0;
+          lin->lambda = lambda;  // the damping of this step, raised if the step is reverted
+          lin->nu = nu;
           if (lambda > 0) {
             lambda *= std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3));
             if (lambda < 1e-3) lambda = 0.0;

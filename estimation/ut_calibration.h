@@ -49,7 +49,8 @@
 // Global start (UtOptions::global_start): a Sobol' screen (estimation/sensitivity/sobol_sequence.h)
 // of `samples` points of the box eta0 +- width sigma0, Phi evaluated at each (and at the prior
 // mean), then a local run from each of the best `keep`; the summary is the local run with the
-// lowest final Phi, with every start listed in UtSummary::starts.
+// lowest final Phi, with every start listed in UtSummary::starts. With probe_iterations the local
+// runs are probes of that many iterations and only the best probe is continued to the end.
 //
 // Failure policy (docs/estimation.md s.8), every action recorded in Summary::actions:
 //  - kAbort: the first iteration with a failed member ends the run (kAbortedFailures) with the
@@ -58,8 +59,11 @@
 //    shrink_factor (P by its square), up to max_retries times, then abort as above. The shrunk
 //    ensemble measures the statistical linearisation over a smaller region; P_tz and P_zz are
 //    divided by the squared factor so the prior covariance is unchanged (exact for a linear h).
-//  In kMap a failed candidate centre is a rejected step (damp and retry), never an abort; only a
-//  failed starting point aborts.
+//  In kMap a failed sigma point whose opposite point (U_j = -U_i) ran is first mirrored through
+//  the centre, z_i = 2 z_c - z_j (a one-sided slope along that axis; exact for a linear h, the
+//  weights unchanged; kMirror), before any shrink. In kMap a failed candidate centre is a rejected step (damp and retry), never an abort; so are
+//  sigma points that still fail at a centre reached by a step (UtAction::kRevert: back to the
+//  previous centre). Only a failed starting point, or failed sigma points there, abort.
 //  No drop-member-and-reweight: a rule with one point removed no longer satisfies U w = 0 and
 //  U W U^T = I (p points cannot have zero mean and identity covariance in p dimensions; dropping
 //  one of a +-pair loses that direction), so no reweighting gives a valid UT.
@@ -123,6 +127,10 @@ struct UtGlobalStart {
   int samples = 0;     // Sobol' points screened; 0: no global start
   int keep = 1;        // local runs, from the best screened points
   double width = 3.0;  // half-width of the screened box in prior stds (eta), > 0
+  // > 0: each local run first makes at most `probe_iterations` iterations; only the one with the
+  // lowest Phi then goes on (from where it stopped) to the full max_iterations. 0: every local run
+  // goes to the end. Starts that lead to the same basin then cost a few iterations, not a run.
+  int probe_iterations = 0;
 };
 const char* to_string(UtInnovation innovation);
 
@@ -180,7 +188,12 @@ struct UtAction {
   // kBacktrack: an iterate-mode step raised the data misfit at the new centre and was halved.
   // kReject: a kMap candidate raised Phi (misfit) or its centre run failed (failed_members {-1});
   // the damping lambda was raised to spread_factor.
-  enum class Kind { kShrinkAndRetry, kAbort, kBacktrack, kReject };
+  // kRevert: kMap, the sigma points at a centre reached by an accepted step still failed after the
+  // shrink retries (failed_members); the step is rejected, the run goes back to the previous
+  // centre and its linearisation, lambda raised to spread_factor (counted in rejected_steps).
+  // kMirror: kMap, failed sigma points whose opposite points ran get z_i = 2 z_c - z_mirror (a
+  // one-sided slope along their axes, failed_members; counted in UtSummary::mirrored).
+  enum class Kind { kShrinkAndRetry, kAbort, kBacktrack, kReject, kRevert, kMirror };
   Kind kind = Kind::kShrinkAndRetry;
   int iteration = 0;
   int attempt = 0;             // the attempt that failed
@@ -273,6 +286,7 @@ struct UtSummary {
   int failures = 0;                     // failed forward runs
   int rejected_steps = 0;               // kMap candidates rejected (raised Phi or failed)
   int retries = 0;                      // shrink-and-retry re-samplings
+  int mirrored = 0;                     // kMap: failed sigma points mirrored (UtAction::kMirror)
   // Phi (kMap objective: data misfit + prior term) at the prior mean and at the estimate.
   double objective_prior = std::numeric_limits<double>::quiet_NaN();
   double objective = std::numeric_limits<double>::quiet_NaN();

@@ -550,6 +550,81 @@ TEST(UtCalibration, MapModeRejectsAFailedCandidateAndDampsInsteadOfAborting) {
   EXPECT_LT(std::abs(s.eta_mean(0) - exact.map(0)), 1e-4);
 }
 
+TEST(UtCalibration, MapModeReturnsFromACentreWhoseSigmaPointsFailInsteadOfAborting) {
+  // z = (t0^2, t1), data (4, 0): the Gauss-Newton step from t0 = 1 overshoots to 2.5 and lowers
+  // Phi, so it is accepted; there every sigma point off the line t1 = 0 fails (t0 > 2.2), also
+  // after the shrink retries. The step is rejected (kRevert), the damped steps from t0 = 1 stay
+  // short of 2.2 and the run converges to the MAP near 2 without aborting.
+  Map h = [](const Eigen::VectorXd& t, Eigen::Ref<Eigen::VectorXd> z) {
+    if (t(0) > 2.2 && t(1) != 0.0) return model::Status::Error(model::StatusCode::kDiverged, "not periodic");
+    z(0) = t(0) * t(0);
+    z(1) = t(1);
+    return model::Status::Ok();
+  };
+  const Eigen::VectorXd m0 = Eigen::Vector2d(1.0, 0.0), s0 = Eigen::Vector2d(1.0, 1.0);
+  const Eigen::VectorXd y = Eigen::Vector2d(4.0, 0.0);
+  const Eigen::MatrixXd R = Eigen::Vector2d(0.01, 0.01).asDiagonal();
+  UtOptions opt = map_options({SigmaRule::kCanonical});
+  opt.sample_scale = 1e-3;
+  const UtSummary s = UtCalibration(FunctionModel(2, 2, h), identity_parameters(m0, s0), observations(y, R), opt).run();
+  ASSERT_EQ(s.termination, UtTermination::kConverged) << s.message;
+  int reverts = 0;
+  for (const UtAction& a : s.actions) {
+    EXPECT_NE(a.kind, UtAction::Kind::kAbort);
+    if (a.kind != UtAction::Kind::kRevert) continue;
+    ++reverts;
+    EXPECT_FALSE(a.failed_members.empty());
+    EXPECT_LT(a.previous_misfit, s.objective_prior + 1e-12);
+    EXPECT_NE(a.describe().find("back to the previous centre"), std::string::npos);
+  }
+  EXPECT_GE(reverts, 1);
+  EXPECT_GE(s.rejected_steps, reverts);
+  EXPECT_GE(s.retries, 3 * reverts);  // every revert follows max_retries shrinks
+  EXPECT_GT(s.failures, 0);
+  const Exact exact = newton_map(
+      h, [](const Eigen::VectorXd& t) { return Eigen::Matrix2d(Eigen::Vector2d(2.0 * t(0), 1.0).asDiagonal()); }, 2,
+      m0, s0, y, R, Eigen::Vector2d(2.0, 0.0));
+  EXPECT_LT((s.eta_mean - exact.map).cwiseAbs().maxCoeff(), 1e-4);
+  EXPECT_LE(s.objective, s.objective_prior);
+}
+
+TEST(UtCalibration, MapModeMirrorsAFailedSigmaPointWhoseOppositePointRan) {
+  // LinearProblem, but the model fails for t2 below its prior mean 2.0: the "-" star point along
+  // t2 fails at every spread, so shrinking cannot help (without mirroring the run aborts at the
+  // start). Its output mirrored through the centre is exact for a linear h, so the first
+  // linearisation gives the exact linear-Gaussian gain and posterior covariance.
+  const LinearProblem lp;
+  int calls_below = 0;
+  FunctionModel fm(3, 4, [&](const Eigen::VectorXd& t, Eigen::Ref<Eigen::VectorXd> z) {
+    if (t(2) < 2.0 - 1e-12) {
+      ++calls_below;
+      return model::Status::Error(model::StatusCode::kNotPeriodic, "not periodic after 400 beats");
+    }
+    z = lp.H * t + lp.c;
+    return model::Status::Ok();
+  });
+  Eigen::VectorXd mean;
+  Eigen::MatrixXd P;
+  lp.exact(mean, P);
+  UtOptions opt = map_options({SigmaRule::kStar});
+  opt.max_iterations = 1;
+  const UtSummary s = UtCalibration(fm, identity_parameters(lp.m0, lp.s0), observations(lp.y, lp.R), opt).run();
+  ASSERT_FALSE(s.iterations.empty()) << s.message;
+  EXPECT_NE(s.termination, UtTermination::kAbortedFailures) << s.message;
+  EXPECT_EQ(s.retries, 0);  // mirrored before any shrink
+  EXPECT_EQ(s.mirrored, 1);
+  EXPECT_GE(s.failures, 1);
+  ASSERT_FALSE(s.actions.empty());
+  EXPECT_EQ(s.actions.front().kind, UtAction::Kind::kMirror);
+  EXPECT_EQ(s.actions.front().failed_members.size(), 1u);
+  EXPECT_NE(s.brief_report().find("1 sigma points mirrored"), std::string::npos) << s.brief_report();
+  const Eigen::MatrixXd P0 = lp.s0.array().square().matrix().asDiagonal();
+  const Eigen::MatrixXd K = P0 * lp.H.transpose() * (lp.H * P0 * lp.H.transpose() + lp.R).inverse();
+  EXPECT_LT((s.iterations[0].gain - K).cwiseAbs().maxCoeff(), 1e-8 * K.cwiseAbs().maxCoeff());
+  EXPECT_LT((s.iterations[0].P - P).cwiseAbs().maxCoeff(), 1e-8 * P.cwiseAbs().maxCoeff());
+  EXPECT_GT(calls_below, 0);
+}
+
 TEST(UtCalibration, MapModeEndsDivergedWhenNoDampedStepIsAcceptable) {
   // Linear z = t with data at 3, but the model fails for t > 0.1: with one rejection allowed the
   // halved step still fails, so no acceptable step exists and the run says so, after re-linearising
@@ -685,6 +760,16 @@ TEST(UtCalibration, GlobalStartFindsTheDeeperOfTwoMinimaAFarPriorMisses) {
   EXPECT_LT(std::abs(global.eta_mean(0) - deep.map(0)), 1e-4);
   EXPECT_LT(global.objective, local.objective - 0.1);
   for (const auto& st : global.starts) EXPECT_GE(st.objective, global.objective);
+  // Probes of 2 iterations from the same 3 starts: the best probe, continued, lands on the same MAP
+  // point with fewer runs than three runs to the end.
+  opt.global_start.probe_iterations = 2;
+  const UtSummary probed = UtCalibration(FunctionModel(1, 2, h), identity_parameters(m0, s0), observations(y, R), opt).run();
+  ASSERT_EQ(probed.termination, UtTermination::kConverged) << probed.message;
+  ASSERT_EQ(probed.starts.size(), 3u);
+  for (const auto& st : probed.starts) EXPECT_LE(st.iterations, 2);
+  EXPECT_LT(std::abs(probed.eta_mean(0) - deep.map(0)), 1e-4);
+  EXPECT_LT(probed.simulations, global.simulations);
+  EXPECT_NE(probed.message.find("probes of 2 iterations continued"), std::string::npos) << probed.message;
 }
 
 }  // namespace
