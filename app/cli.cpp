@@ -10,7 +10,11 @@
 #include <omp.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
+#include <unistd.h>
 
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
 #include <exception>
 #include <filesystem>
 #include <memory>
@@ -173,7 +177,63 @@ void add_study_command(CLI::App& app, CommandContext& ctx, const std::string& na
   sub->add_option("--threads", opts->threads, help.threads)
       ->check(CLI::Range(1, estimation::kMaxThreads));
   add_set_option(*sub, opts->overrides);
-  sub->callback([opts, &ctx, run] { ctx.run = [opts, &ctx, run] { return run(*opts, ctx); }; });
+  sub->callback([opts, &ctx, run, name] {
+    ctx.run = [opts, &ctx, run, name] {
+      check_outputs({{"-o", study_output(*opts, name)}, {"--summary", opts->summary}}, {opts->config});
+      return run(*opts, ctx);
+    };
+  });
+}
+
+namespace {
+
+// The same file, whether or not it exists yet (weakly canonical paths).
+bool same_file(const std::filesystem::path& a, const std::filesystem::path& b) {
+  std::error_code ea, eb;
+  const auto ca = std::filesystem::weakly_canonical(std::filesystem::absolute(a), ea);
+  const auto cb = std::filesystem::weakly_canonical(std::filesystem::absolute(b), eb);
+  return !ea && !eb && ca == cb;
+}
+
+}  // namespace
+
+void check_outputs(const std::vector<std::pair<std::string, std::filesystem::path>>& outputs,
+                   const std::vector<std::filesystem::path>& inputs) {
+  for (size_t i = 0; i < outputs.size(); ++i) {
+    const auto& [option, path] = outputs[i];
+    if (path.empty()) continue;
+    const Location where{option + " " + path.string(), 0, 0};
+    for (const auto& input : inputs) {
+      if (same_file(path, input)) {
+        throw InputError(where, "is the input file " + input.string() +
+                                    "; choose another output path (the input would be overwritten)");
+      }
+    }
+    for (size_t j = 0; j < i; ++j) {
+      if (!outputs[j].second.empty() && same_file(path, outputs[j].second)) {
+        throw InputError(where, "is also the " + outputs[j].first + " file; give two different paths");
+      }
+    }
+    std::error_code ec;
+    if (std::filesystem::is_directory(path, ec)) {
+      throw InputError(where, "is a directory; expected a file path such as results/run.h5");
+    }
+    const std::filesystem::path dir =
+        path.parent_path().empty() ? std::filesystem::path(".") : path.parent_path();
+    std::filesystem::create_directories(dir, ec);
+    // A probe file with a name no other process uses: this process id and a counter.
+    static int probes = 0;
+    const std::filesystem::path probe =
+        dir / (".sigmaheart-write-test-" + std::to_string(::getpid()) + "-" + std::to_string(++probes));
+    std::FILE* f = std::fopen(probe.c_str(), "wx");
+    if (!f) {
+      const int error = errno;
+      throw InputError(where, "cannot write in " + dir.string() + ": " + std::strerror(error) +
+                                  " (checked before any work)");
+    }
+    std::fclose(f);
+    std::filesystem::remove(probe, ec);
+  }
 }
 
 std::filesystem::path study_output(const StudyOptions& o, const std::string& kind) {

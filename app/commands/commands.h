@@ -102,6 +102,14 @@ struct StudyHelp {
 void add_study_command(CLI::App& app, CommandContext& ctx, const std::string& name, const std::string& about,
                        const StudyHelp& help, int (*run)(const StudyOptions&, CommandContext&));
 
+// Before any work: each output path (empty ones skipped) must differ from every input and from
+// the other outputs, and its directory must be one this process can create files in (the
+// directories are created, a uniquely named probe file is made and removed). InputError at the
+// option (`-o`, `--summary`) otherwise, so a run never computes for an hour to fail at the write
+// or overwrites its own config. Every rank checks (the same paths give the same answer).
+void check_outputs(const std::vector<std::pair<std::string, std::filesystem::path>>& outputs,
+                   const std::vector<std::filesystem::path>& inputs);
+
 // The results file of an estimation command: o.output, else default_output_path(o.config, kind).
 std::filesystem::path study_output(const StudyOptions& o, const std::string& kind);
 

@@ -54,6 +54,7 @@ int run_simulate(const SimulateOptions& o, CommandContext& ctx) {
   io::Provenance prov = started_provenance();
   const Config config = load_config(o.config, o.overrides, *ctx.models, *ctx.sections);
   const std::filesystem::path output = !o.output.empty() ? o.output : default_output_path(o.config, "simulate");
+  check_outputs({{"-o", output}, {"--csv", o.csv}, {"--summary", o.summary}}, {o.config});
 
   auto simulator = config.simulator.make();
   const Eigen::VectorXd theta = config.simulator.parameters.nominal();

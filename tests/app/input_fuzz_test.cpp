@@ -21,6 +21,8 @@
 #include <string>
 #include <vector>
 
+#include <unistd.h>
+
 namespace sigmaheart {
 namespace {
 
@@ -269,6 +271,42 @@ TEST(Fuzz, EnormousFrameCountIsRefusedAtTheFlag) {
   EXPECT_EQ(o.code, 2);
   EXPECT_NE(o.err.find("error: --frames: expected 3 to 100000 frames"), std::string::npos) << o.err;
   EXPECT_FALSE(fs::exists(dir / "x.csv"));
+}
+
+// Outputs are checked before any work: an output that is an input, two outputs on one file, a
+// directory, or a directory that cannot be written is refused at its option (exit 2) and the
+// input is untouched.
+TEST(Outputs, AreCheckedBeforeAnyWork) {
+  const fs::path dir = scratch_dir();
+  const fs::path config = dir / "healthy.yaml";
+  fs::copy_file(kSource / "configs/healthy.yaml", config);
+  const std::string text = read_file(config);
+  const Outcome same = run({"simulate", config.string(), "-o", config.string()});
+  EXPECT_EQ(same.code, 2);
+  EXPECT_NE(same.err.find("error: -o " + config.string() + ": is the input file"), std::string::npos)
+      << same.err;
+  EXPECT_EQ(read_file(config), text);
+  const fs::path h5 = dir / "r.h5";
+  const Outcome twice = run({"simulate", config.string(), "-o", h5.string(), "--summary", h5.string()});
+  EXPECT_EQ(twice.code, 2);
+  EXPECT_NE(twice.err.find("is also the -o file"), std::string::npos) << twice.err;
+  const Outcome directory = run({"calibrate", (kSource / "configs/calibrate-volunteer.yaml").string(),
+                                 "-o", dir.string()});
+  EXPECT_EQ(directory.code, 2);
+  EXPECT_NE(directory.err.find("is a directory"), std::string::npos) << directory.err;
+  // A directory without write permission (root may write anyway: then the run is not refused).
+  const fs::path locked = dir / "locked";
+  fs::create_directory(locked);
+  fs::permissions(locked, fs::perms::owner_read | fs::perms::owner_exec);
+  const bool root_writes = ::access(locked.c_str(), W_OK) == 0;
+  if (!root_writes) {
+    const Outcome denied = run({"calibrate", (kSource / "configs/calibrate-volunteer.yaml").string(),
+                                "-o", (locked / "r.h5").string()});
+    EXPECT_EQ(denied.code, 2);
+    EXPECT_NE(denied.err.find("cannot write in"), std::string::npos) << denied.err;
+  }
+  fs::permissions(locked, fs::perms::owner_all);
+  EXPECT_FALSE(fs::exists(h5));
 }
 
 // validate reports every error it finds, each at its place, and ends with the count.

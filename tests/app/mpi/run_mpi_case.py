@@ -36,10 +36,10 @@ CASES = {
                     ["r.json"], 0),
     "synthesize": (["synthesize", "{src}/configs/healthy.yaml", "-o", "{out}/obs.csv",
                     "--noise", "V_lv=2 mL", "--seed", "3"], ["obs.csv"], 0),
-    # rank 0 alone cannot write its output (the parent "directory" is a file); the others
-    # finish the calibration and must follow rank 0's exit code 1 instead of hanging or exiting 0.
+    # the output cannot be written (its parent "directory" is a file): every rank refuses before
+    # any work (app/cli.cpp, check_outputs) with exit code 2, none hangs in a collective.
     "fail-unwritable-output": (["calibrate", "{src}/configs/calibrate-volunteer.yaml",
-                                "-o", "{out}/blocker/r.h5"], [], 1),
+                                "-o", "{out}/blocker/r.h5"], [], 2),
     # bad input: every rank fails the same way with exit code 2.
     "fail-bad-config": (["simulate", "{src}/configs/healthy.yaml", "-o", "{out}/r.h5",
                          "--set", "EF=2"], [], 2),
