@@ -1,4 +1,7 @@
 #include "app/cli.h"
+#include "estimation/interrupt.h"
+
+#include <csignal>
 
 #include "app/commands/commands.h"
 #include "app/errors.h"
@@ -90,7 +93,13 @@ int run_cli_on_rank(int argc, const char* const* argv, std::ostream& out, std::o
 
   try {
     setup_logging(ctx.root() ? log_level : std::string("off"));
+    clear_named_input_files();
+    estimation::install_interrupt_handlers();
     return ctx.run ? ctx.run() : kExitOk;
+  } catch (const estimation::Interrupted& e) {
+    err << "error: interrupted by " << (e.signal == SIGINT ? "SIGINT" : e.signal == SIGTERM ? "SIGTERM" : "a signal")
+        << " before the run finished; nothing was written but the checkpoint (see above)\n";
+    return kExitInterruptedBase + e.signal;
   } catch (const InputError& e) {
     err << "error: " << e.what() << "\n";
     return kExitBadInput;
@@ -176,6 +185,8 @@ void add_study_command(CLI::App& app, CommandContext& ctx, const std::string& na
   sub->add_option("--summary", opts->summary, help.summary);
   sub->add_option("--threads", opts->threads, help.threads)
       ->check(CLI::Range(1, estimation::kMaxThreads));
+  sub->add_flag("--resume", opts->resume,
+                "Continue an interrupted run: members recorded in <output>.checkpoint are not run again");
   add_set_option(*sub, opts->overrides);
   sub->callback([opts, &ctx, run, name] {
     ctx.run = [opts, &ctx, run, name] {

@@ -3,6 +3,8 @@
 #include "app/model_options.h"
 #include "model/enum_names.h"
 
+#include <algorithm>
+#include <mutex>
 #include <array>
 
 #include <stdexcept>
@@ -136,6 +138,20 @@ void apply_overrides(ConfigFile& file, const std::vector<std::string>& overrides
   }
 }
 
+namespace {
+std::mutex g_inputs_mutex;
+std::vector<std::filesystem::path> g_inputs;
+}  // namespace
+
+std::vector<std::filesystem::path> named_input_files() {
+  std::lock_guard<std::mutex> lock(g_inputs_mutex);
+  return g_inputs;
+}
+void clear_named_input_files() {
+  std::lock_guard<std::mutex> lock(g_inputs_mutex);
+  g_inputs.clear();
+}
+
 std::filesystem::path input_file(const ConfigNode& at, std::filesystem::path path,
                                  const std::filesystem::path& base, const std::string& what) {
   if (path.empty()) at.fail("expected the path of the " + what + ", got nothing");
@@ -155,6 +171,10 @@ std::filesystem::path input_file(const ConfigNode& at, std::filesystem::path pat
     at.fail(what + " '" + path.string() + "' is " +
             (std::filesystem::is_directory(status) ? "a directory" : "not a regular file") +
             "; expected a file");
+  }
+  {
+    std::lock_guard<std::mutex> lock(g_inputs_mutex);
+    if (std::find(g_inputs.begin(), g_inputs.end(), path) == g_inputs.end()) g_inputs.push_back(path);
   }
   return path;
 }

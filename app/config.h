@@ -109,6 +109,12 @@ void apply_overrides(ConfigFile& file, const std::vector<std::string>& overrides
 std::filesystem::path input_file(const ConfigNode& at, std::filesystem::path path,
                                  const std::filesystem::path& base, const std::string& what);
 
+// Every file input_file() accepted since the last clear, in order, without repeats (the data
+// files a config names: the checkpoint fingerprint includes their content, and no output may be
+// one of them). Process-wide and thread-safe; run_cli clears it before each command.
+std::vector<std::filesystem::path> named_input_files();
+void clear_named_input_files();
+
 // The dotted path an override key stands for ("sigma0" -> "simulator.parameters.sigma0").
 std::string expand_override_key(const std::string& key);
 

@@ -13,6 +13,9 @@ enum ExitCode : int {
   kExitOk = 0,
   kExitRuntimeFailure = 1,  // the input was fine but the work failed (simulation diverged ...)
   kExitBadInput = 2,        // config, data file, unknown key, value out of bounds, bad option
+  // Stopped by a signal: 128 + its number (130 SIGINT, 143 SIGTERM), the shell's convention. The
+  // finished members are in the checkpoint; --resume continues (docs/architecture.md s.7).
+  kExitInterruptedBase = 128,
 };
 
 // Where a piece of input came from. line and column are 1-based; 0 means unknown (a command-line

@@ -163,8 +163,10 @@ SpecificitySetup parse_specificity_setup(const Config& config) {
 std::vector<sp::CohortCase> cohort_of(const SpecificitySetup& setup) {
   std::vector<sp::CohortCase> cohort;
   const auto p = static_cast<Eigen::Index>(setup.names.size());
-  for (const auto& c : setup.cases) {
+  for (size_t i = 0; i < setup.cases.size(); ++i) {
+    const auto& c = setup.cases[i];
     sp::CohortCase k{c.name, c.group, c.file.string(), {}};
+    k.observations = static_cast<int>(setup.problems[i].observations.size());
     if (!c.truth.empty()) {
       k.truth = Eigen::VectorXd::Constant(p, std::numeric_limits<double>::quiet_NaN());
       for (Eigen::Index j = 0; j < p; ++j) {
@@ -182,10 +184,14 @@ std::string validate_case(const CalibrationProblem& problem, estimation::Forward
 }
 
 sp::CaseCalibration calibrate_case(const CalibrationProblem& problem, estimation::ForwardModel& model,
-                                   int threads) {
+                                   int threads, estimation::MemberCheckpoint* checkpoint,
+                                   const std::string& scope) {
   const auto t0 = std::chrono::steady_clock::now();
   estimation::UtOptions options = problem.options;
   options.ensemble.threads = threads;
+  options.ensemble.communicator = nullptr;  // a case runs on one rank (the cases are spread)
+  options.ensemble.checkpoint = checkpoint;
+  options.ensemble.checkpoint_scope = scope;
   if (threads == 1) options.ensemble.backend = estimation::Backend::kSerial;
   const estimation::UtSummary s = make_calibration(problem, model, options).run();
   sp::CaseCalibration out;

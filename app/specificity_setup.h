@@ -76,10 +76,13 @@ std::vector<estimation::specificity::CohortCase> cohort_of(const SpecificitySetu
 // The per-case UT calibration: the one place that builds a UtCalibration from a case's problem.
 // validate_case returns an empty string when the case's calibration can run; calibrate_case runs
 // it on `model` (a forward model of the case's observer) with the configured ensemble on `threads`
-// threads (1: serial). The case fails when !UtSummary::ok() (anything but converged, e.g. the
+// threads (1: serial), recording its members in `checkpoint` (if any) under `scope` (the case's
+// name). The case fails when !UtSummary::ok() (anything but converged, e.g. the
 // iteration limit, is a failed case: listed and left out of the statistics).
 std::string validate_case(const CalibrationProblem& problem, estimation::ForwardModel& model);
 estimation::specificity::CaseCalibration calibrate_case(const CalibrationProblem& problem,
-                                                        estimation::ForwardModel& model, int threads);
+                                                        estimation::ForwardModel& model, int threads,
+                                                        estimation::MemberCheckpoint* checkpoint = nullptr,
+                                                        const std::string& scope = "");
 
 }  // namespace sigmaheart::app

@@ -1,8 +1,12 @@
 #include "estimation/ensemble.h"
 
 #include "estimation/enum_names.h"
+#include "estimation/interrupt.h"
 
 #include <omp.h>
+
+#include <algorithm>
+#include <limits>
 
 #include <sstream>
 #include <stdexcept>
@@ -61,7 +65,11 @@ Ensemble::Ensemble(const ForwardModel& prototype, EnsembleOptions options)
     pool.communicator = &parallel::world_communicator();
   }
   pool.schedule = options_.schedule;
-  pool.progress = options_.progress;
+  comm_ = pool.communicator;
+  if (options_.progress) {
+    pool.progress = [this](int done, int) { options_.progress(progress_done_ + done, progress_total_); };
+  }
+  if (options_.checkpoint) instance_ = options_.checkpoint->next_instance(options_.checkpoint_scope);
   pool_ = std::make_unique<parallel::WorkerPool<ForwardModel>>(prototype, std::move(pool));
 }
 
@@ -86,10 +94,66 @@ EnsembleResult Ensemble::map_rows(
     int members, int width,
     const std::function<model::Status(int member, int worker, Eigen::Ref<Eigen::VectorXd> row)>&
         task) {
-  parallel::RowResults rows = pool_->map_rows(members, width, task);
+  const long call = calls_++;
+  MemberCheckpoint* const checkpoint = options_.checkpoint;
+  const int ranks = comm_ ? comm_->size() : 1;
+  const bool records = checkpoint && (ranks == 1 || comm_->rank() == 0);
+  auto key = [&](int m) {
+    return MemberCheckpoint::key(options_.checkpoint_scope, instance_, call, m);
+  };
+
   EnsembleResult result;
-  result.Z = std::move(rows.rows);
-  result.status = std::move(rows.status);
+  result.Z = Eigen::MatrixXd::Constant(members, width, std::numeric_limits<double>::quiet_NaN());
+  result.status.assign(static_cast<size_t>(members), model::Status::Ok());
+  std::vector<int> todo;
+  int found = 0;
+  for (int m = 0; m < members; ++m) {
+    const MemberCheckpoint::Record* r = checkpoint ? checkpoint->find(key(m)) : nullptr;
+    if (r && r->row.size() == width && r->status.code != model::StatusCode::kCancelled) {
+      result.Z.row(m) = r->row.transpose();
+      result.status[static_cast<size_t>(m)] = r->status;
+      ++found;
+    } else {
+      todo.push_back(m);
+    }
+  }
+  if (found > 0) {
+    reused_ += found;
+    checkpoint->note_reused(found);
+  }
+
+  const int all = static_cast<int>(todo.size());
+  const int batch = !checkpoint ? std::max(all, 1)
+                    : options_.checkpoint_batch > 0 ? options_.checkpoint_batch
+                                                    : std::max(32, 8 * workers() * ranks);
+  progress_total_ = members;
+  for (int start = 0; start < all || (start == 0 && all == 0); start += batch) {
+    const int n = std::min(batch, all - start);
+    progress_done_ = found + start;
+    if (n > 0) {
+      parallel::RowResults rows = pool_->map_rows(
+          n, width, [&](int b, int worker, Eigen::Ref<Eigen::VectorXd> row) -> model::Status {
+            if (interrupt_signal() != 0) {
+              return model::Status::Error(model::StatusCode::kCancelled, "interrupted before it ran");
+            }
+            return task(todo[static_cast<size_t>(start + b)], worker, row);
+          });
+      for (int b = 0; b < n; ++b) {
+        const int m = todo[static_cast<size_t>(start + b)];
+        result.Z.row(m) = rows.rows.row(b);
+        result.status[static_cast<size_t>(m)] = std::move(rows.status[static_cast<size_t>(b)]);
+        if (records && result.status[static_cast<size_t>(m)].code != model::StatusCode::kCancelled) {
+          checkpoint->add(key(m), result.status[static_cast<size_t>(m)], result.Z.row(m).transpose());
+        }
+      }
+      if (records) checkpoint->flush();
+    }
+    // Every rank stops together: the largest signal number seen on any rank.
+    int signal = interrupt_signal();
+    if (ranks > 1) signal = comm_->all_reduce_max(signal);
+    if (signal != 0) throw Interrupted{signal};
+    if (all == 0) break;
+  }
   return result;
 }
 

@@ -4,6 +4,10 @@
 // depend on the backend, the thread count, the rank count or the hand-out order (docs/architecture.md,
 // "Parallelism").
 //
+// Interruption (estimation/interrupt.h): once SIGINT or SIGTERM has been received, members not
+// yet started are not run (Status kCancelled); after the batch the finished members are recorded in
+// the checkpoint (if any) and evaluate()/map_rows() throw Interrupted on every rank.
+//
 // Failures: a member whose forward model returns a non-ok Status, throws, or returns non-finite
 // z gets a non-ok Status and a NaN row; the ensemble itself never throws for a member's failure.
 // Exceptions thrown by a member are turned into StatusCode::kInvalidArgument with the message
@@ -20,6 +24,7 @@
 // explicitly (0 means all cores in every rank).
 #pragma once
 
+#include "estimation/checkpoint.h"
 #include "estimation/mpi.h"
 #include "estimation/parallel/communicator.h"
 #include "estimation/parallel/worker_pool.h"
@@ -71,6 +76,13 @@ struct EnsembleOptions {
   // Hand-out of members to workers: dynamic (default; balances members of unequal cost) or the
   // fixed contiguous/static split (for comparison). Results are the same either way.
   parallel::Schedule schedule = parallel::Schedule::kDynamic;
+  // Checkpoint (estimation/checkpoint.h; not owned, outlives the Ensemble): members found in it are
+  // not run again, members run are recorded after each batch. Null: no checkpoint.
+  MemberCheckpoint* checkpoint = nullptr;
+  // The checkpoint scope of this ensemble (a case id in a specificity study; see checkpoint.h).
+  std::string checkpoint_scope;
+  // Members per recorded batch with a checkpoint; 0: max(32, 8 x the workers of all ranks).
+  int checkpoint_batch = 0;
   // Empty when valid; kMpi without MPI compiled in is an error.
   std::string validate() const;
 };
@@ -110,6 +122,8 @@ class Ensemble {
           task);
 
   ForwardModel& worker_model(int worker);
+  // Members taken from the checkpoint instead of being run, over all calls so far.
+  int reused_members() const { return reused_; }
   // The rank context the members are spread over: 0 and 1 when local.
   int rank() const;
   int ranks() const;
@@ -117,6 +131,12 @@ class Ensemble {
  private:
   EnsembleOptions options_;
   std::unique_ptr<parallel::WorkerPool<ForwardModel>> pool_;
+  parallel::Communicator* comm_ = nullptr;  // the ranks of the pool (null: this process)
+  int instance_ = 0;                        // checkpoint instance number
+  long calls_ = 0;                          // evaluate()/map_rows() calls so far
+  int reused_ = 0;
+  int progress_done_ = 0;                   // members done before the current pool call
+  int progress_total_ = 0;                  // members of the current call
 };
 
 }  // namespace sigmaheart::estimation

@@ -11,12 +11,12 @@
 
 namespace sigmaheart::model {
 
-constexpr std::array<EnumName<StatusCode>, 9> kStatusCodeNames{{
+constexpr std::array<EnumName<StatusCode>, 10> kStatusCodeNames{{
     {StatusCode::kOk, "ok"}, {StatusCode::kDiverged, "diverged"},
     {StatusCode::kNonFinite, "non-finite"}, {StatusCode::kOutOfBounds, "out-of-bounds"},
     {StatusCode::kNotPeriodic, "not-periodic"}, {StatusCode::kProcessFailed, "process-failed"},
     {StatusCode::kTimeout, "timeout"}, {StatusCode::kBadOutput, "bad-output"},
-    {StatusCode::kInvalidArgument, "invalid-argument"},
+    {StatusCode::kInvalidArgument, "invalid-argument"}, {StatusCode::kCancelled, "cancelled"},
 }};
 const char* to_string(StatusCode code) { return enum_to_string(kStatusCodeNames, code); }
 

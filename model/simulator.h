@@ -30,6 +30,7 @@ enum class StatusCode {
   kTimeout,          // external simulator: killed after its time limit
   kBadOutput,        // external simulator: output missing or unreadable
   kInvalidArgument,  // wrong sizes or options: a programming or configuration error
+  kCancelled,        // not run: the run was interrupted (SIGINT/SIGTERM) before this member
 };
 
 const char* to_string(StatusCode code);

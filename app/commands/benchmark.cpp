@@ -5,6 +5,7 @@
 // table as CSV and the deformed state as ParaView files.
 #include "app/commands/commands.h"
 #include "app/errors.h"
+#include "app/io/atomic_file.h"
 
 #ifdef SIGMAHEART_HAVE_FEM
 #include "app/io/mesh_io.h"
@@ -99,13 +100,7 @@ int run_benchmark(const BenchmarkOptions& o, CommandContext& ctx) {
     }
   }
   if (!o.output.empty()) {
-    const std::filesystem::path tmp = o.output.string() + ".tmp";
-    {
-      std::ofstream f(tmp);
-      if (!f) throw RunFailure("cannot write " + tmp.string());
-      f << csv.str();
-    }
-    std::filesystem::rename(tmp, o.output);
+    io::write_text_file(o.output, [&](std::ostream& f) { f << csv.str(); });
   }
   if (!all_ok) throw RunFailure("the Newton solve failed for at least one refinement (see the table)");
   return kExitOk;

@@ -47,7 +47,7 @@ int run_calibrate(const StudyOptions& o, CommandContext& ctx) {
   io::Provenance prov = started_provenance();
   const Config config = load_config(o.config, o.overrides, *ctx.models, *ctx.sections);
   const CalibrationProblem problem = parse_calibration_problem(config);
-  const std::filesystem::path output = study_output(o, "calibrate");
+  StudyRun study(o, ctx, config, "calibrate");
 
   auto simulator = config.simulator.make();
   const std::vector<std::string> names = problem.prior.names();
@@ -57,6 +57,7 @@ int run_calibrate(const StudyOptions& o, CommandContext& ctx) {
   const int ranks = ctx.ranks;
   estimation::UtOptions options = problem.options;
   const int threads = set_up_study_ensemble(o, ctx, options.ensemble);
+  study.attach(options.ensemble);
   ProgressLine progress(ctx.err, "calibrate", root);
   options.progress = ut_progress(progress);
 
@@ -75,6 +76,7 @@ int run_calibrate(const StudyOptions& o, CommandContext& ctx) {
   estimation::LeastSquaresOptions lsq = problem.least_squares;
   lsq.ensemble = options.ensemble;
   lsq.ensemble.progress = nullptr;
+  lsq.ensemble.checkpoint_scope = "least-squares";
   std::optional<estimation::LeastSquaresSummary> map;
   estimation::UtSummary summary;
   if (problem.least_squares_method) {
@@ -100,6 +102,7 @@ int run_calibrate(const StudyOptions& o, CommandContext& ctx) {
   const model::RunResult prior_run = simulator->run(forward.full_theta(summary.theta_prior));
   const model::RunResult post_run = simulator->run(forward.full_theta(summary.theta_of_eta_mean));
 
+  const std::filesystem::path output = study.output(summary.ok());
   if (root) {
     io::CalibrationResults results;
     results.problem = &problem;
@@ -114,14 +117,15 @@ int run_calibrate(const StudyOptions& o, CommandContext& ctx) {
 
     fill_provenance(prov, config, ctx, "calibrate", threads, ranks);
     io::write_calibration_h5(output, results, prov);
-    report_written(ctx, io::calibration_report(results), output, o.summary,
+    report_written(ctx, io::calibration_report(results), output, study.summary(summary.ok()),
                    [&](const std::filesystem::path& p) { io::write_calibration_json(p, config.name, results); });
   }
+  study.finish();
   if (!summary.ok()) {
     // Not a success (docs/estimation.md s.9): say what happened, exit 1; the results are written.
     return stopped_early(ctx, "calibration " + std::string(estimation::to_string(summary.termination)) +
                                   ": " + summary.message + "; the results (status included) are in " +
-                                  output.string());
+                                  output.string() + study.kept_note());
   }
   return kExitOk;
 }

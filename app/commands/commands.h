@@ -88,6 +88,7 @@ struct StudyOptions {
   std::filesystem::path summary;  // empty: no JSON summary
   int threads = 0;                // > 0: overrides the config's thread count
   std::vector<std::string> overrides;
+  bool resume = false;            // --resume: continue from <output>.checkpoint
 };
 
 // The help texts of an estimation command's positional config, --summary and --threads.
@@ -112,6 +113,46 @@ void check_outputs(const std::vector<std::pair<std::string, std::filesystem::pat
 
 // The results file of an estimation command: o.output, else default_output_path(o.config, kind).
 std::filesystem::path study_output(const StudyOptions& o, const std::string& kind);
+
+// What every estimation command does around its estimator (docs/architecture.md s.5, "Checkpoint
+// and resume", and s.6): made after the config is loaded, before any forward run.
+//  - The outputs are checked against the data files the config names (an output may not be one).
+//  - The checkpoint <output>.checkpoint (estimation/checkpoint.h): every ensemble the command
+//    attaches records its finished members there; with --resume the members an earlier run of the
+//    same command, config, overrides and data files finished are taken from it instead of being
+//    run again. finish() removes it once the results are written; if the command ends otherwise
+//    (interrupted, killed, an error) it stays, and the log says how to continue.
+//  - A run that did not succeed never replaces an earlier result: output(false) and summary(false)
+//    are <stem>.failed<ext> when the file exists already, and kept_note() says so.
+class StudyRun {
+ public:
+  StudyRun(const StudyOptions& o, const CommandContext& ctx, const Config& config, const std::string& kind);
+  ~StudyRun();
+  StudyRun(const StudyRun&) = delete;
+  StudyRun& operator=(const StudyRun&) = delete;
+
+  // Records the members of an ensemble in the checkpoint; `scope` separates independent streams of
+  // work (a case of a cohort; estimation/checkpoint.h).
+  void attach(estimation::EnsembleOptions& ensemble, const std::string& scope = "") const;
+  std::filesystem::path output(bool succeeded);
+  std::filesystem::path summary(bool succeeded);  // empty when no --summary
+  // "; the earlier result <file> was kept" when output(false) moved this run's results aside.
+  std::string kept_note() const { return kept_note_; }
+  // The results are written: logs what the checkpoint saved and removes it.
+  void finish();
+  const std::filesystem::path& checkpoint_path() const { return checkpoint_path_; }
+
+ private:
+  std::filesystem::path aside(const std::filesystem::path& file, bool succeeded);
+
+  std::filesystem::path output_;
+  std::filesystem::path summary_;
+  std::filesystem::path checkpoint_path_;
+  std::unique_ptr<estimation::MemberCheckpoint> checkpoint_;
+  std::string kept_note_;
+  bool root_ = true;
+  bool finished_ = false;
+};
 
 // The ensemble of calibrate and personalize: --threads (o.threads > 0) over the config's count,
 // the members spread over ctx's ranks, the serial backend on one thread. Returns the thread count

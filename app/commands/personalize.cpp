@@ -43,7 +43,7 @@ int run_personalize(const StudyOptions& o, CommandContext& ctx) {
   io::Provenance prov = started_provenance();
   const Config config = load_config(o.config, o.overrides, *ctx.models, *ctx.sections);
   PersonalizeProblem problem = parse_personalize(config);
-  const std::filesystem::path output = study_output(o, "personalize");
+  StudyRun study(o, ctx, config, "personalize");
 
   std::unique_ptr<model::Simulator> simulator = config.simulator.make();
   const auto* steppable = dynamic_cast<const model::SteppableSimulator*>(simulator.get());
@@ -54,6 +54,7 @@ int run_personalize(const StudyOptions& o, CommandContext& ctx) {
   }
   estimation::RoukfOptions& filter = problem.filter;
   const int threads = set_up_study_ensemble(o, ctx, filter.ensemble);
+  study.attach(filter.ensemble);
   const int frames = static_cast<int>(problem.data.times.size());
   const bool root = ctx.root();
 
@@ -72,20 +73,23 @@ int run_personalize(const StudyOptions& o, CommandContext& ctx) {
     throw InputError(config.file.root()["personalize"].location(), summary.message);
   }
 
+  const std::filesystem::path output = study.output(summary.ok());
   if (root) {
     io::RoukfResults results;
     results.problem = &problem;
     results.summary = &summary;
     results.space = &config.simulator.parameters;
     results.threads = threads;
-    fill_provenance(prov, config, ctx, "personalize", threads, 1);
+    fill_provenance(prov, config, ctx, "personalize", threads, ctx.ranks);
     io::write_roukf_h5(output, results, prov);
-    report_written(ctx, io::roukf_report(results), output, o.summary,
+    report_written(ctx, io::roukf_report(results), output, study.summary(summary.ok()),
                    [&](const std::filesystem::path& p) { io::write_roukf_json(p, config.name, results); });
   }
+  study.finish();
   if (!summary.ok()) {
     return stopped_early(ctx, "the filter stopped (" + std::string(estimation::to_string(summary.termination)) +
-                                  "): " + summary.message + "; the steps done are in " + output.string());
+                                  "): " + summary.message + "; the steps done are in " + output.string() +
+                                  study.kept_note());
   }
   return kExitOk;
 }

@@ -34,8 +34,9 @@ int run_sensitivity(const StudyOptions& o, CommandContext& ctx) {
   io::Provenance prov = started_provenance();
   const Config config = load_config(o.config, o.overrides, *ctx.models, *ctx.sections);
   SensitivitySetup setup = parse_sensitivity(config);
-  const std::filesystem::path output = study_output(o, "sensitivity");
+  StudyRun run(o, ctx, config, "sensitivity");
   estimation::EnsembleOptions ensemble = setup.ensemble();
+  run.attach(ensemble);
   if (o.threads > 0) ensemble.threads = o.threads;
   ensemble.communicator = ctx.comm;  // members spread over the ranks, if several
   if (ensemble.threads == 1 && ensemble.backend == estimation::Backend::kThreads) {
@@ -63,21 +64,23 @@ int run_sensitivity(const StudyOptions& o, CommandContext& ctx) {
   }
   progress.finish();
   const estimation::sensitivity::StudySummary& study = study_of(summary);
+  const std::filesystem::path output = run.output(study.ok());
   if (ctx.root()) {
     io::Hdf5Writer h5(output);
     io::write_sensitivity_h5(h5, setup, summary);
     prov.end_utc = io::utc_now();
     io::write_provenance(h5, prov);
     h5.commit();
-    report_written(ctx, io::sensitivity_report(setup, summary), output, o.summary,
+    report_written(ctx, io::sensitivity_report(setup, summary), output, run.summary(study.ok()),
                    [&](const std::filesystem::path& p) {
                      const auto js = io::sensitivity_json(config.name, setup, summary, output.string());
                      io::write_text_file(p, [&](std::ostream& f) { f << js.dump(2) << "\n"; });
                    });
   }
+  run.finish();
   if (!study.ok()) {
     throw RunFailure("sensitivity study '" + config.name + "': " + study.message +
-                     " (failed runs listed in " + output.string() + ", /analysis/failed)");
+                     " (failed runs listed in " + output.string() + ", /analysis/failed)" + run.kept_note());
   }
   return kExitOk;
 }

@@ -49,7 +49,7 @@ int run_specificity_command(const StudyOptions& o, CommandContext& ctx) {
   const auto wall_start = std::chrono::steady_clock::now();
   const Config config = load_config(o.config, o.overrides, *ctx.models, *ctx.sections);
   const SpecificitySetup setup = parse_specificity_setup(config);
-  const std::filesystem::path output = study_output(o, "specificity");
+  StudyRun study(o, ctx, config, "specificity");
   const int n = static_cast<int>(setup.cases.size());
 
   io::SpecificityRun run;
@@ -88,17 +88,22 @@ int run_specificity_command(const StudyOptions& o, CommandContext& ctx) {
   so.alpha = setup.section.alpha;
   so.min_cases_per_group = setup.section.min_cases_per_group;
   so.case_threads = run.by_case ? run.threads : 1;
+  so.communicator = ctx.comm;  // cases spread over the ranks
+  estimation::EnsembleOptions recorded;
+  study.attach(recorded);
+  so.checkpoint = recorded.checkpoint;
   so.progress = [&line](int done, int, const std::string&) { line.update(done); };
   const sp::SpecificitySummary summary = sp::run_specificity(
       cohort,
       [&](const sp::CohortCase& c) {
         const size_t i = index_of.at(c.id);
-        return calibrate_case(setup.problems[i], *forwards[i], ensemble_threads);
+        return calibrate_case(setup.problems[i], *forwards[i], ensemble_threads, so.checkpoint, "case:" + c.id);
       },
       so);
   line.finish();
   run.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
 
+  const std::filesystem::path output = study.output(summary.ok());
   if (ctx.root()) {
     fill_provenance(prov, config, ctx, "specificity", run.threads, ctx.ranks);
     {
@@ -108,19 +113,20 @@ int run_specificity_command(const StudyOptions& o, CommandContext& ctx) {
       io::write_provenance(h5, prov);
       h5.commit();
     }
-    report_written(ctx, io::specificity_report(config.name, setup, summary, run), output, o.summary,
+    report_written(ctx, io::specificity_report(config.name, setup, summary, run), output, study.summary(summary.ok()),
                    [&](const std::filesystem::path& p) {
                      const auto j = io::specificity_json(config.name, setup, summary, run, output.string());
                      io::write_text_file(p, [&](std::ostream& f) { f << j.dump(2) << "\n"; });
                    });
   }
+  study.finish();
   if (!summary.failed_cases.empty() && summary.ok()) {
     spdlog::warn("{} of {} calibrations failed and were left out of the statistics (listed above and "
                  "in /failed)", summary.failed_cases.size(), n);
   }
   if (!summary.ok()) {
     throw RunFailure("specificity study '" + config.name + "': " + summary.message + "; per-case results in " +
-                     output.string());
+                     output.string() + study.kept_note());
   }
   return kExitOk;
 }

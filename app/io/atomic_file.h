@@ -1,6 +1,9 @@
-// All-or-nothing output files (docs/architecture.md, tier 2 of errors): everything is written to
-// "<name>.tmp" in the same directory and renamed over <name> only on commit(), so a crash or an
-// error never leaves a half-written file and an existing result is replaced only on success.
+// All-or-nothing output files (docs/architecture.md, tier 2 of errors): everything is written to a
+// hidden temporary file in the same directory, ".<name>.sigmaheart-<pid>-<serial>.tmp" (unique, so
+// two runs writing next to each other never collide), and renamed over <name> only on commit(), so
+// a crash or an error never leaves a half-written file and an existing result is replaced only on
+// success. An error or a signal that ends the command removes the temporary file (destructor); one
+// left by a SIGKILL is removed by the next writer of the same name once its process is gone.
 //
 // Under several ranks (docs/architecture.md, "Parallelism") every rank runs the same command, but only
 // the root writes: run_cli opens an OutputRankScope(false) on the other ranks, where AtomicFile
@@ -51,6 +54,11 @@ class AtomicFile {
   bool committed_ = false;
   bool discard_ = false;
 };
+
+// The temporary name of `name` for process `pid` (what AtomicFile uses; exposed for tests).
+std::string temporary_name(const std::string& name, long pid, long serial);
+// Removes the temporaries of `path` left by processes that no longer exist; returns how many.
+int remove_stale_temporaries(const std::filesystem::path& path);
 
 // Writes a text file atomically: `fill` writes the content to the stream. Throws RunFailure
 // when the file cannot be written.

@@ -1,5 +1,7 @@
 #include "app/io/mesh_io.h"
 
+#include "app/io/atomic_file.h"
+
 #include <Eigen/Dense>
 
 #include <algorithm>
@@ -377,13 +379,11 @@ Mesh parse_gmsh(const std::string& text, const std::string& name) {
 }
 
 namespace {
-void commit(const std::string& tmp, const std::string& path) {
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) throw std::runtime_error("cannot rename " + tmp + " to " + path);
-}
 }  // namespace
 
 void write_vtu(const std::string& path, const Mesh& mesh, const VtuFields& fields) {
-  const std::string tmp = path + ".tmp";
+  AtomicFile file{std::filesystem::path(path)};
+  const std::string tmp = file.temp_path().string();
   {
     std::ofstream os(tmp);
     if (!os) throw std::runtime_error("cannot write " + tmp);
@@ -438,11 +438,12 @@ void write_vtu(const std::string& path, const Mesh& mesh, const VtuFields& field
     os << "</CellData>\n</Piece></UnstructuredGrid>\n</VTKFile>\n";
     if (!os) throw std::runtime_error("error while writing " + tmp);
   }
-  commit(tmp, path);
+  file.commit();
 }
 
 void write_pvd(const std::string& path, const std::vector<std::pair<double, std::string>>& steps) {
-  const std::string tmp = path + ".tmp";
+  AtomicFile file{std::filesystem::path(path)};
+  const std::string tmp = file.temp_path().string();
   {
     std::ofstream os(tmp);
     if (!os) throw std::runtime_error("cannot write " + tmp);
@@ -451,7 +452,7 @@ void write_pvd(const std::string& path, const std::vector<std::pair<double, std:
     os << "</Collection>\n</VTKFile>\n";
     if (!os) throw std::runtime_error("error while writing " + tmp);
   }
-  commit(tmp, path);
+  file.commit();
 }
 
 }  // namespace sigmaheart::app::io

@@ -1,5 +1,10 @@
 #include "estimation/specificity/specificity.h"
 
+#include "estimation/ensemble.h"
+#include "estimation/interrupt.h"
+
+#include <atomic>
+
 #include "estimation/enum_names.h"
 
 #include <Eigen/Cholesky>
@@ -251,34 +256,113 @@ bool SpecificitySummary::any_truth() const {
   return (t.array() == t.array()).any();
 }
 
+namespace {
+// The prototype of the ensemble over cases: its members run calibrations, not this model.
+class NoForwardModel final : public ForwardModel {
+ public:
+  int input_size() const override { return 0; }
+  std::vector<std::string> input_names() const override { return {}; }
+  std::vector<model::Channel> outputs() const override { return {}; }
+  model::Status evaluate(const Eigen::Ref<const Eigen::VectorXd>&, Eigen::Ref<Eigen::VectorXd>) override {
+    return model::Status::Error(model::StatusCode::kInvalidArgument, "not a forward model");
+  }
+  std::unique_ptr<ForwardModel> clone() const override { return std::make_unique<NoForwardModel>(); }
+};
+}  // namespace
+
 SpecificitySummary run_specificity(const std::vector<CohortCase>& cases, const CalibrateFn& calibrate,
                                    const SpecificityOptions& options) {
   if (const std::string m = options.validate(); !m.empty()) throw std::invalid_argument(m);
   if (!calibrate) throw std::invalid_argument("specificity study: no calibration given");
   const int n = static_cast<int>(cases.size());
   std::vector<CaseCalibration> results(static_cast<size_t>(n));
-  std::mutex progress_mutex;
-  int done = 0;
-  auto one = [&](int i) {
-    const CohortCase& c = cases[static_cast<size_t>(i)];
-    CaseCalibration cal;
-    try {
-      cal = calibrate(c);
-    } catch (const std::exception& e) {
-      cal.status = model::Status::Error(model::StatusCode::kInvalidArgument,
-                                        std::string("calibration threw: ") + e.what());
-    }
-    results[static_cast<size_t>(i)] = std::move(cal);
-    if (options.progress) {
-      std::lock_guard<std::mutex> lock(progress_mutex);
-      options.progress(++done, n, c.id);
+  // The cases are the members of an ensemble over threads and ranks: each case's calibration is
+  // packed into a row of doubles (NaN as kNaNCode, since a member's row must be finite) and its
+  // texts into the member's status message, so that the pool can gather it and the checkpoint
+  // record it.
+  const int p = static_cast<int>(options.parameters.size());
+  int m_obs = 0;
+  for (const auto& c : cases) m_obs = std::max(m_obs, c.observations);
+  const int width = 8 + 2 * p + 2 * m_obs;
+  constexpr double kNaNCode = std::numeric_limits<double>::max();
+  constexpr char kSep = '\x1f';
+  auto pack = [&](const Eigen::VectorXd& v, Eigen::Ref<Eigen::VectorXd> out) {
+    for (Eigen::Index j = 0; j < out.size(); ++j) {
+      out(j) = j < v.size() && std::isfinite(v(j)) ? v(j) : kNaNCode;
     }
   };
-  if (options.case_threads > 1 && n > 1) {
-#pragma omp parallel for schedule(dynamic, 1) num_threads(std::min(options.case_threads, n))
-    for (int i = 0; i < n; ++i) one(i);
-  } else {
-    for (int i = 0; i < n; ++i) one(i);
+  auto unpack = [&](Eigen::Index size, const Eigen::Ref<const Eigen::VectorXd>& in) {
+    Eigen::VectorXd v(size);
+    for (Eigen::Index j = 0; j < size; ++j) v(j) = in(j) == kNaNCode ? kNaN : in(j);
+    return v;
+  };
+  EnsembleOptions eo;
+  eo.backend = options.case_threads > 1 ? Backend::kThreads : Backend::kSerial;
+  eo.threads = std::max(1, options.case_threads);
+  eo.communicator = options.communicator;
+  eo.checkpoint = options.checkpoint;
+  eo.checkpoint_scope = "cases";
+  std::mutex progress_mutex;
+  if (options.progress) {
+    eo.progress = [&](int done, int total) {
+      std::lock_guard<std::mutex> lock(progress_mutex);
+      options.progress(done, total, std::string());
+    };
+  }
+  const NoForwardModel no_model;
+  Ensemble ensemble(no_model, eo);
+  const EnsembleResult rows = ensemble.map_rows(
+      n, width, [&](int i, int, Eigen::Ref<Eigen::VectorXd> row) -> model::Status {
+        const CohortCase& c = cases[static_cast<size_t>(i)];
+        CaseCalibration cal;
+        try {
+          cal = calibrate(c);
+        } catch (const Interrupted&) {
+          return model::Status::Error(model::StatusCode::kCancelled, "interrupted while calibrating");
+        } catch (const std::exception& e) {
+          cal.status = model::Status::Error(model::StatusCode::kInvalidArgument,
+                                            std::string("calibration threw: ") + e.what());
+        }
+        row(0) = static_cast<double>(cal.status.code);
+        row(1) = cal.iterations;
+        row(2) = cal.simulations;
+        row(3) = cal.seconds;
+        row(4) = static_cast<double>(cal.mean.size());
+        row(5) = static_cast<double>(cal.sd.size());
+        row(6) = static_cast<double>(cal.observed.size());
+        row(7) = static_cast<double>(cal.fitted.size());
+        if (cal.mean.size() > p || cal.sd.size() > p || cal.fitted.size() > m_obs || cal.observed.size() > m_obs) {
+          row(0) = static_cast<double>(model::StatusCode::kBadOutput);
+          row.segment(4, 4).setZero();
+        }
+        pack(cal.mean, row.segment(8, p));
+        pack(cal.sd, row.segment(8 + p, p));
+        pack(cal.fitted, row.segment(8 + 2 * p, m_obs));
+        pack(cal.observed, row.segment(8 + 2 * p + m_obs, m_obs));
+        model::Status packed = model::Status::Ok();
+        packed.message = cal.termination + kSep + cal.message + kSep + cal.status.message;
+        return packed;
+      });
+  for (int i = 0; i < n; ++i) {
+    CaseCalibration& cal = results[static_cast<size_t>(i)];
+    const model::Status& st = rows.status[static_cast<size_t>(i)];
+    const Eigen::VectorXd row = rows.Z.row(i).transpose();
+    if (!st.ok()) {  // the case's packing itself failed (cannot happen short of a bug)
+      cal.status = st;
+      continue;
+    }
+    const std::string& text = st.message;
+    const size_t a = text.find(kSep), b = text.find(kSep, a + 1);
+    cal.termination = text.substr(0, a);
+    cal.message = text.substr(a + 1, b - a - 1);
+    cal.status = {static_cast<model::StatusCode>(static_cast<int>(row(0))), text.substr(b + 1)};
+    cal.iterations = static_cast<int>(row(1));
+    cal.simulations = static_cast<int>(row(2));
+    cal.seconds = row(3);
+    cal.mean = unpack(static_cast<Eigen::Index>(row(4)), row.segment(8, p));
+    cal.sd = unpack(static_cast<Eigen::Index>(row(5)), row.segment(8 + p, p));
+    cal.fitted = unpack(static_cast<Eigen::Index>(row(7)), row.segment(8 + 2 * p, m_obs));
+    cal.observed = unpack(static_cast<Eigen::Index>(row(6)), row.segment(8 + 2 * p + m_obs, m_obs));
   }
 
   std::vector<CaseEstimate> estimates;

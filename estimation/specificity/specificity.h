@@ -18,6 +18,8 @@
 // posterior spread, reported here per group as the mean posterior standard deviation).
 #pragma once
 
+#include "estimation/checkpoint.h"
+#include "estimation/parallel/communicator.h"
 #include "estimation/specificity/statistics.h"
 #include "model/simulator.h"
 
@@ -38,6 +40,9 @@ struct CohortCase {
   // Known parameter values (synthetic cohorts), in the order of SpecificityOptions::parameters;
   // NaN where unknown, empty when none is known. Reported beside the estimates.
   Eigen::VectorXd truth;
+  // The length of the case's observation vector (sizes the rows in which calibrations are
+  // gathered from threads and ranks; at least the size of what calibrate returns).
+  int observations = 0;
 };
 
 // What a calibration returns for one case: posterior mean and standard deviation of each studied
@@ -89,6 +94,12 @@ struct SpecificityOptions {
   // schedule, one case per thread). 1: in order. With more than 1 the calibrate callable must be
   // safe to call concurrently (each call on its own simulator); results do not depend on it.
   int case_threads = 1;
+  // The ranks to spread the cases over (not owned; null: this process) and the checkpoint that
+  // records finished cases (estimation/checkpoint.h; scope "cases"). With several ranks each case
+  // is calibrated on one rank (dynamic hand-out) and the results are gathered on every rank; the
+  // calibrate callable must then build local ensembles (no communicator).
+  parallel::Communicator* communicator = nullptr;
+  MemberCheckpoint* checkpoint = nullptr;
   // Called after each calibrated case (run_specificity only; serialised, possibly from a worker
   // thread, so `done` counts finished cases, not a position in the cohort).
   std::function<void(int done, int total, const std::string& id)> progress;

@@ -80,7 +80,7 @@ TEST(CalibrateCommand, RecoversAHiddenTruthFromSynthesizedCurves) {
   EXPECT_EQ(j["status"], "converged");
   EXPECT_EQ(j["mode"], "map");
   EXPECT_TRUE(std::filesystem::exists(dir / "r.h5"));
-  EXPECT_FALSE(std::filesystem::exists(dir / "r.h5.tmp"));
+  EXPECT_EQ(temporaries_in(dir), 0);
   EXPECT_NE(r.out.find("RMS residual in noise standard deviations"), std::string::npos);
 }
 

@@ -19,6 +19,7 @@ namespace {
 
 using sigmaheart::testing::read_file;
 using sigmaheart::testing::scratch_dir;
+using sigmaheart::testing::temporaries_in;
 using sigmaheart::testing::write_file;
 
 const char* kStandIn =
@@ -40,7 +41,7 @@ TEST(Cli, SimulateWritesResultsCsvAndJsonAndExitsZero) {
                      (dir / "r.csv").string(), "--summary", (dir / "r.json").string(), "--set",
                      "EF=0.5"});
   ASSERT_EQ(r.code, kExitOk) << r.err;
-  EXPECT_FALSE(std::filesystem::exists(dir / "r.h5.tmp"));
+  EXPECT_EQ(temporaries_in(dir), 0);
 
   io::Hdf5Reader f(h5);
   EXPECT_EQ(f.string_attribute("/", "kind"), "simulate");
@@ -102,7 +103,7 @@ simulator:
   EXPECT_EQ(r.err, "error: " + config.string() +
                        ":5:5: unknown parameter 'V_edd' for model test-beat (did you mean 'V_ed'?)\n");
   EXPECT_EQ(read_file(h5), "previous result");
-  EXPECT_FALSE(std::filesystem::exists(dir / "r.h5.tmp"));
+  EXPECT_EQ(temporaries_in(dir), 0);
 }
 
 TEST(Cli, OutOfBoundsSetExitsTwo) {

@@ -12,6 +12,7 @@ namespace {
 
 using sigmaheart::testing::read_file;
 using sigmaheart::testing::scratch_dir;
+using sigmaheart::testing::temporaries_in;
 using sigmaheart::testing::write_file;
 
 model::Trajectory small_trajectory() {
@@ -28,7 +29,7 @@ TEST(Hdf5Writer, WritesAtomicallyAndReadsBackDatasetsWithUnits) {
   const auto path = dir / "out" / "r.h5";  // the directory is created
   {
     Hdf5Writer w(path);
-    EXPECT_TRUE(std::filesystem::exists(dir / "out" / "r.h5.tmp"));
+    EXPECT_EQ(temporaries_in(dir / "out"), 1);  // the unique hidden temporary
     EXPECT_FALSE(std::filesystem::exists(path));
     w.write_vector("/a/b/x", Eigen::Vector3d(1.0, 2.0, 3.5), "mL");
     w.write_text("/config", "name: x\n");
@@ -42,7 +43,7 @@ TEST(Hdf5Writer, WritesAtomicallyAndReadsBackDatasetsWithUnits) {
     w.commit();
   }
   EXPECT_TRUE(std::filesystem::exists(path));
-  EXPECT_FALSE(std::filesystem::exists(dir / "out" / "r.h5.tmp"));
+  EXPECT_EQ(temporaries_in(dir / "out"), 0);
 
   Hdf5Reader r(path);
   EXPECT_EQ(r.read_vector("/a/b/x"), Eigen::Vector3d(1.0, 2.0, 3.5));
@@ -69,7 +70,7 @@ TEST(Hdf5Writer, AnExistingFileIsReplacedOnlyOnCommit) {
     // no commit: an error before the end of the work
   }
   EXPECT_EQ(read_file(path), "previous result");
-  EXPECT_FALSE(std::filesystem::exists(dir / "r.h5.tmp"));
+  EXPECT_EQ(temporaries_in(dir), 0);
 }
 
 TEST(Results, TrajectoryIsStoredInClinicalUnitsWithUnitsAttributes) {
@@ -93,7 +94,7 @@ TEST(Results, TrajectoryIsStoredInClinicalUnitsWithUnitsAttributes) {
 TEST(Results, CsvHasANameAndUnitHeaderAndClinicalValues) {
   const auto dir = scratch_dir();
   write_trajectory_csv(dir / "t.csv", small_trajectory());
-  EXPECT_FALSE(std::filesystem::exists(dir / "t.csv.tmp"));
+  EXPECT_EQ(temporaries_in(dir), 0);
   EXPECT_EQ(read_file(dir / "t.csv"),
             "time [s],V_lv [mL],P_lv [mmHg],phase [1]\n"
             "0,120,7.500637554,0\n"

@@ -28,6 +28,17 @@ inline std::filesystem::path scratch_dir() {
   return dir;
 }
 
+// Temporary files (io::AtomicFile's ".<name>.sigmaheart-<pid>-<n>.tmp", or any "*.tmp") in `dir`.
+inline int temporaries_in(const std::filesystem::path& dir) {
+  int n = 0;
+  std::error_code ec;
+  for (const auto& e : std::filesystem::directory_iterator(dir, ec)) {
+    const std::string name = e.path().filename().string();
+    if (name.size() > 4 && name.compare(name.size() - 4, 4, ".tmp") == 0) ++n;
+  }
+  return n;
+}
+
 inline std::filesystem::path write_file(const std::filesystem::path& path, const std::string& text) {
   std::ofstream(path, std::ios::binary) << text;
   return path;

@@ -1,0 +1,146 @@
+#!/usr/bin/env python3
+"""Kills a `sigmaheart` estimation command at several points and resumes it (issue 12, item 5).
+
+  kill_resume.py --sigmaheart build/sigmaheart --source SRC CASE
+
+For CASE (calibrate, sensitivity, specificity, personalize) it checks, on the built binary:
+ 1. the uninterrupted run (the reference);
+ 2. SIGKILL at three points of the run, each time followed by `--resume` (the last one runs to the
+    end): the JSON summary equals the reference (numbers bitwise or to 1e-12 relative where they
+    went through text; provenance and timings excepted), the checkpoint is gone, no temporary file
+    is left;
+ 3. SIGINT in the middle: exit code 130, the checkpoint is there and nothing else was written, and
+    `--resume` ends with the reference numbers;
+ 4. a new run SIGKILLed while an earlier result exists leaves that result byte for byte intact;
+ 5. (calibrate) a run that fails (iteration limit, exit 1) does not replace the earlier result: it
+    writes <stem>.failed.h5/.json and says where the earlier one is.
+The kill points are fractions of the reference's wall time, so they land in different places on
+any machine; what is asserted holds wherever they land.
+"""
+import argparse
+import json
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "mpi"))
+from run_mpi_case import compare_json  # noqa: E402  (the same comparison as the MPI cases)
+
+CASES = {
+    "calibrate": ["calibrate", "{src}/configs/calibrate-volunteer.yaml"],
+    "sensitivity": ["sensitivity", "{src}/experiments/sensitivity-bcs/morris.yaml",
+                    "--set", "sensitivity.morris.trajectories=60"],
+    "specificity": ["specificity", "{src}/configs/specificity-cohort.yaml"],
+    "personalize": ["personalize", "{src}/configs/personalize-lad-infarct.yaml",
+                    "--set", "personalize.filter.beats=1"],
+}
+KILL_FRACTIONS = (0.15, 0.4, 0.7)
+
+
+def run(exe, args, out, extra=(), kill_after=None, sig=signal.SIGKILL):
+    """Runs the command; with kill_after (s) sends `sig` then. Returns (exit code, stderr)."""
+    cmd = [exe] + args + ["-o", os.path.join(out, "r.h5"), "--summary", os.path.join(out, "r.json"),
+                          "--threads", "2"] + list(extra)
+    p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    if kill_after is not None:
+        try:
+            p.wait(timeout=kill_after)
+        except subprocess.TimeoutExpired:
+            p.send_signal(sig)
+    o, e = p.communicate(timeout=900)
+    code = p.returncode
+    return (128 - code if code < 0 else code), e
+
+
+def leftovers(out):
+    return sorted(f for f in os.listdir(out) if f.endswith(".tmp") or ".checkpoint" in f)
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--sigmaheart", required=True)
+    ap.add_argument("--source", required=True)
+    ap.add_argument("case", choices=sorted(CASES))
+    a = ap.parse_args()
+    args = [x.format(src=a.source) for x in CASES[a.case]]
+    problems = []
+    with tempfile.TemporaryDirectory() as tmp:
+        ref_dir, out = os.path.join(tmp, "ref"), os.path.join(tmp, "out")
+        os.makedirs(ref_dir)
+        os.makedirs(out)
+        t0 = time.monotonic()
+        code, err = run(a.sigmaheart, args, ref_dir)
+        wall = time.monotonic() - t0
+        if code != 0:
+            print(f"reference run failed ({code}):\n{err}")
+            return 1
+        reference = json.load(open(os.path.join(ref_dir, "r.json")))
+        print(f"{a.case}: reference run {wall:.2f} s")
+
+        # 2. SIGKILL at several points, resumed each time.
+        killed = False  # whether the last run was killed (else it finished, resuming the earlier ones)
+        for i, f in enumerate(KILL_FRACTIONS):
+            code, err = run(a.sigmaheart, args, out, ["--resume"] if i else [], kill_after=f * wall)
+            killed = code == 128 + signal.SIGKILL
+            print(f"  SIGKILL after {f * wall:.2f} s: exit {code}")
+        code, err = run(a.sigmaheart, args, out, ["--resume"])
+        if code != 0:
+            problems.append(f"resumed run exit {code}:\n{err}")
+        else:
+            compare_json(reference, json.load(open(os.path.join(out, "r.json"))), "resumed", problems)
+            if "taken from the checkpoint" not in err and killed:
+                problems.append("the resumed run took nothing from the checkpoint:\n" + err)
+        if leftovers(out):
+            problems.append(f"left after the resumed run: {leftovers(out)}")
+
+        # 3. SIGINT in the middle: 130, checkpoint kept, nothing else written; resume.
+        sig_dir = os.path.join(tmp, "sigint")
+        os.makedirs(sig_dir)
+        code, err = run(a.sigmaheart, args, sig_dir, kill_after=0.5 * wall, sig=signal.SIGINT)
+        print(f"  SIGINT after {0.5 * wall:.2f} s: exit {code}")
+        if code == 130:
+            files = sorted(os.listdir(sig_dir))
+            if files != ["r.h5.checkpoint"]:
+                problems.append(f"after SIGINT the directory holds {files}, expected only the checkpoint")
+            if "--resume" not in err:
+                problems.append("SIGINT: stderr does not say how to resume:\n" + err)
+            code, err = run(a.sigmaheart, args, sig_dir, ["--resume"])
+            if code != 0:
+                problems.append(f"resume after SIGINT: exit {code}\n{err}")
+            else:
+                compare_json(reference, json.load(open(os.path.join(sig_dir, "r.json"))), "after-sigint",
+                             problems)
+        elif code != 0:
+            problems.append(f"SIGINT: exit {code}, expected 130\n{err}")
+
+        # 4. A killed run leaves the earlier result intact.
+        before = {f: open(os.path.join(out, f), "rb").read() for f in ("r.h5", "r.json")}
+        code, err = run(a.sigmaheart, args, out, kill_after=0.5 * wall)
+        for f, data in before.items():
+            if open(os.path.join(out, f), "rb").read() != data:
+                problems.append(f"{f} changed although the run writing it was killed (exit {code})")
+
+        # 5. A failed run keeps the earlier result.
+        if a.case == "calibrate":
+            code, err = run(a.sigmaheart, args, out, ["--set", "calibration.max_iterations=1"])
+            if code != 1:
+                problems.append(f"the failing calibration exited {code}, expected 1")
+            for f, data in before.items():
+                if open(os.path.join(out, f), "rb").read() != data:
+                    problems.append(f"the failed run replaced {f}")
+            for f in ("r.failed.h5", "r.failed.json"):
+                if not os.path.exists(os.path.join(out, f)):
+                    problems.append(f"the failed run did not write {f}")
+            if "the earlier result" not in err or "was kept" not in err:
+                problems.append("the failed run does not say the earlier result was kept:\n" + err)
+    for p in problems:
+        print("PROBLEM:", p)
+    print("ok" if not problems else f"{len(problems)} problem(s)")
+    return 1 if problems else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
