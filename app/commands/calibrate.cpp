@@ -115,7 +115,7 @@ int run_calibrate(const StudyOptions& o, CommandContext& ctx) {
     fill_provenance(prov, config, ctx, "calibrate", threads, ranks);
     io::write_calibration_h5(output, results, prov);
     report_written(ctx, io::calibration_report(results), output, o.summary,
-                   [&](const std::filesystem::path& p) { io::write_calibration_json(p, config.name, results); });
+                   [&](const std::filesystem::path& p) { io::write_calibration_json(p, config.name, results, prov); });
   }
   if (!summary.ok()) {
     // Not a success (docs/estimation.md s.9): say what happened, exit 1; the results are written.

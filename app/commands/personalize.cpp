@@ -81,7 +81,7 @@ int run_personalize(const StudyOptions& o, CommandContext& ctx) {
     fill_provenance(prov, config, ctx, "personalize", threads, 1);
     io::write_roukf_h5(output, results, prov);
     report_written(ctx, io::roukf_report(results), output, o.summary,
-                   [&](const std::filesystem::path& p) { io::write_roukf_json(p, config.name, results); });
+                   [&](const std::filesystem::path& p) { io::write_roukf_json(p, config.name, results, prov); });
   }
   if (!summary.ok()) {
     return stopped_early(ctx, "the filter stopped (" + std::string(estimation::to_string(summary.termination)) +
