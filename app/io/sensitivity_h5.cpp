@@ -436,6 +436,15 @@ struct MethodWriter {
         << e.ST(ii) << " (" << std::showpos << r.estimate.ST(ii, 0) - e.ST(ii) << std::noshowpos
         << ")\n";
     }
+    if (!r.estimate.S2.empty() && e.S2.rows() == static_cast<Eigen::Index>(r.parameters.size())) {
+      for (Eigen::Index i = 0; i < e.S2.rows(); ++i) {
+        for (Eigen::Index k = i + 1; k < e.S2.cols(); ++k) {
+          s << "  S2(" << r.parameters[static_cast<size_t>(i)] << ", " << r.parameters[static_cast<size_t>(k)]
+            << ") " << e.S2(i, k) << " (" << std::showpos << r.estimate.S2[0](i, k) - e.S2(i, k)
+            << std::noshowpos << ")\n";
+        }
+      }
+    }
     return s.str();
   }
 };

@@ -152,6 +152,7 @@ TEST(SensitivityCommand, SecondOrderIndicesGoToHdf5AndJson) {
   EXPECT_FALSE(j["indices"]["y"]["S2"].contains("x3"));  // pairs i < k only
   EXPECT_NEAR(j["exact"]["S2"]["x1"]["x3"].get<double>(), 0.2437, 1e-4);
   EXPECT_NE(r.out.find("largest interaction S2(x1, x3)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("S2(x1, x3) 0.2437 ("), std::string::npos) << r.out;  // the exact table
 }
 
 // The parameter and output name lists are HDF5 dimension scales attached to the axes of the
