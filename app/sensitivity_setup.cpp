@@ -148,13 +148,15 @@ void parse_methods(const ConfigNode& node, std::uint64_t seed, SensitivitySetup&
     if (const std::string m = s.morris.validate(); !m.empty()) n.fail(m);
   }
   const ConfigNode n = node["sobol"];
-  n.check_keys({"N", "bootstrap", "confidence", "convergence_levels", "scrambling", "failure_policy"});
+  n.check_keys({"N", "bootstrap", "confidence", "convergence_levels", "scrambling", "failure_policy",
+                "second_order"});
   s.sobol.seed = seed;
   s.sobol.base_samples = n.optional<int>("N", s.sobol.base_samples);
   if (n.has("N") && (s.sobol.base_samples < 16 ||
                      !sh::is_power_of_two(static_cast<std::uint64_t>(s.sobol.base_samples)))) {
     n["N"].fail("expected a power of two >= 16 (the design runs N (p + 2) simulations)");
   }
+  s.sobol.second_order = n.optional<bool>("second_order", s.sobol.second_order);
   s.sobol.bootstrap_samples = n.optional<int>("bootstrap", s.sobol.bootstrap_samples);
   s.sobol.confidence = n.optional<double>("confidence", s.sobol.confidence);
   s.sobol.convergence_levels = n.optional<int>("convergence_levels", s.sobol.convergence_levels);
@@ -179,7 +181,8 @@ int SensitivitySetup::runs() const {
   switch (method) {
     case SensitivityMethod::kOat: return 2 * p + 1;
     case SensitivityMethod::kMorris: return morris.trajectories * (p + 1);
-    case SensitivityMethod::kSobol: return sobol.base_samples * (p + 2);
+    case SensitivityMethod::kSobol:
+      return static_cast<int>(sh::sobol_runs(p, sobol.base_samples, sobol.second_order));
   }
   return 0;
 }
@@ -234,7 +237,7 @@ SensitivitySetup parse_sensitivity(const Config& config) {
     runs = static_cast<std::int64_t>(s.morris.trajectories) * (p + 1);
     key = "trajectories";
   } else if (s.method == SensitivityMethod::kSobol) {
-    runs = static_cast<std::int64_t>(s.sobol.base_samples) * (p + 2);
+    runs = sh::sobol_runs(static_cast<int>(p), s.sobol.base_samples, s.sobol.second_order);
     key = "N";
   }
   constexpr std::int64_t kMaxRuns = 100'000'000;  // ~10 days of 1 s simulations on 100 cores

@@ -18,7 +18,8 @@
 //     oat: {mode: relative, relative_change: 0.1}      # mode: relative | range
 //     morris: {trajectories: 20, levels: 4, bootstrap: 1000, confidence: 0.95}
 //     sobol: {N: 1024, bootstrap: 1000, confidence: 0.95, convergence_levels: 4,
-//             scrambling: lms, failure_policy: stop}   # failure_policy: stop | impute-mean
+//             scrambling: lms, failure_policy: stop,   # failure_policy: stop | impute-mean
+//             second_order: false}                     # true: S2 too, N (2p + 2) runs
 //     ensemble: {backend: threads, threads: 0}         # serial | threads | mpi; 0 = all cores
 #pragma once
 

@@ -3,8 +3,8 @@
 sensitivity (app/commands/sensitivity.cpp), depending on /analysis@method:
   oat     tornado per output (bars: z(low) - z(nominal), z(high) - z(nominal)), elasticity heat map
   morris  mu*-sigma plane per output (with bootstrap intervals), heat map of mu* / max per output
-  sobol   S1 / ST bars with their bootstrap intervals per output, heat map of S1 (main effect),
-          convergence of S1 and ST with N
+  sobol   S1 / ST bars +- S1_conf / ST_conf (SALib's names) per output, heat map of S1 (main
+          effect), S2 heat maps (second_order), convergence of S1 and ST with N
 specificity (app/commands/specificity.cpp): one strip per parameter, every case's posterior mean
 with +-1 posterior std, group means, the true value when the cohort lists it.
 """
@@ -150,10 +150,12 @@ def _plot_sobol(f, out_dir, stem) -> List[str]:
     paths = []
     if "S1" not in g:
         return paths  # invalid study: nothing to draw (the failed runs are in /analysis/failed)
+    # SALib's names: S1_conf / ST_conf are half-widths of the bootstrap interval.
     S1, ST = np.asarray(g["S1"][()]), np.asarray(g["ST"][()])
-    S1l, S1h = np.asarray(g["S1_low"][()]), np.asarray(g["S1_high"][()])
-    STl, STh = np.asarray(g["ST_low"][()]), np.asarray(g["ST_high"][()])
+    S1c, STc = np.asarray(g["S1_conf"][()]), np.asarray(g["ST_conf"][()])
     N = int(g.attrs.get("N", 0))
+    second = int(g.attrs.get("second_order", 0)) == 1
+    level = 100.0 * float(g.attrs.get("confidence", 0.95))
     exact = None
     if "exact" in a:
         exact = (np.asarray(a["exact/S1"][()]), np.asarray(a["exact/ST"][()]))
@@ -162,24 +164,24 @@ def _plot_sobol(f, out_dir, stem) -> List[str]:
         x = np.arange(len(params))
         w = 0.4
         for k, ax in enumerate(axes):
-            def err(v, l, h):
-                return np.vstack([np.clip(v - l, 0, None), np.clip(h - v, 0, None)])
-            ax.bar(x - w / 2, S1[:, k], w, yerr=np.nan_to_num(err(S1[:, k], S1l[:, k], S1h[:, k])),
+            ax.bar(x - w / 2, S1[:, k], w, yerr=np.nan_to_num(S1c[:, k]),
                    color="#3182bd", capsize=2, error_kw={"lw": 0.8}, label="S1 (first order)")
-            ax.bar(x + w / 2, ST[:, k], w, yerr=np.nan_to_num(err(ST[:, k], STl[:, k], STh[:, k])),
+            ax.bar(x + w / 2, ST[:, k], w, yerr=np.nan_to_num(STc[:, k]),
                    color="#e6550d", capsize=2, error_kw={"lw": 0.8}, label="ST (total)")
             if exact is not None and len(outputs) == 1:
                 ax.scatter(x - w / 2, exact[0], marker="_", s=200, color="k", zorder=5, label="exact S1")
                 ax.scatter(x + w / 2, exact[1], marker="_", s=200, color="0.4", zorder=5, label="exact ST")
             ax.set_xticks(x)
             ax.set_xticklabels(params, rotation=70 if len(params) > 6 else 0, fontsize=7)
-            ax.set_ylim(min(0.0, float(np.nanmin(S1l[:, k])) if np.isfinite(S1l[:, k]).any() else 0.0) - 0.02, 1.05)
+            low = S1[:, k] - S1c[:, k]
+            ax.set_ylim(min(0.0, float(np.nanmin(low)) if np.isfinite(low).any() else 0.0) - 0.02, 1.05)
             ax.set_ylabel("Sobol' index [1]")
             ax.set_title(_label(outputs[k], units[k]), fontsize=10)
             if k == 0:
                 ax.legend(fontsize=7, loc="upper right")
-        fig.suptitle(sp.title_of(f, f"Sobol' indices with 95 % bootstrap intervals (N = {N}, "
-                                    f"{N * (len(params) + 2)} runs)"))
+        runs = N * (2 * len(params) + 2 if second else len(params) + 2)
+        fig.suptitle(sp.title_of(f, f"Sobol' indices +- S1_conf / ST_conf ({level:g} % bootstrap, "
+                                    f"N = {N}, {runs} runs)"))
         fig.tight_layout(rect=(0, 0, 1, 0.97))
         paths.append(sp.save(fig, out_dir, stem, "sobol-bars"))
 
@@ -187,17 +189,37 @@ def _plot_sobol(f, out_dir, stem) -> List[str]:
                                      "Main effect: first-order Sobol' index S1", "S1 [1]",
                                      out_dir, stem))
 
+        if second and "S2" in g:
+            # One p x p heat map per output: S2(i, k) above the diagonal.
+            fig, axes = _grid(len(outputs), 3.8, 3.4)
+            for k, ax in enumerate(axes):
+                S2 = np.asarray(g[f"S2/{outputs[k]}"][()])
+                im = ax.imshow(np.ma.masked_invalid(S2), cmap="viridis", vmin=0.0,
+                               vmax=max(0.05, float(np.nanmax(S2)) if np.isfinite(S2).any() else 0.05))
+                ax.set_xticks(range(len(params)))
+                ax.set_xticklabels(params, rotation=70, fontsize=6)
+                ax.set_yticks(range(len(params)))
+                ax.set_yticklabels(params, fontsize=6)
+                ax.set_title(outputs[k], fontsize=10)
+                fig.colorbar(im, ax=ax, label="S2 [1]")
+            fig.suptitle(sp.title_of(f, "Second-order Sobol' indices S2 (Saltelli 2002)"))
+            fig.tight_layout(rect=(0, 0, 1, 0.96))
+            paths.append(sp.save(fig, out_dir, stem, "sobol-second-order"))
+
         if "convergence" in g and "n" in g["convergence"]:
-            ns = sorted(int(n) for n in g["convergence/n"][()])
+            # Groups are named n<size> zero-padded to the width of N ("n0128"): map size -> name.
+            groups = {int(name[1:]): name for name in g["convergence"]
+                      if name.startswith("n") and name[1:].isdigit()}
+            ns = sorted(int(n) for n in g["convergence/n"][()] if int(n) in groups)
             fig, axes = _grid(len(outputs), 3.6, 3.0)
             colors = plt.cm.tab10(np.linspace(0, 1, 10))
             for k, ax in enumerate(axes):
                 top = np.argsort(-np.nan_to_num(ST[:, k]))[: min(4, len(params))]
                 for c, i in enumerate(top):
-                    st = [g[f"convergence/n{n}/ST"][()][i, k] for n in ns]
-                    s1 = [g[f"convergence/n{n}/S1"][()][i, k] for n in ns]
-                    lo = [g[f"convergence/n{n}/ST_low"][()][i, k] for n in ns]
-                    hi = [g[f"convergence/n{n}/ST_high"][()][i, k] for n in ns]
+                    st = np.array([g[f"convergence/{groups[n]}/ST"][()][i, k] for n in ns])
+                    s1 = [g[f"convergence/{groups[n]}/S1"][()][i, k] for n in ns]
+                    conf = np.array([g[f"convergence/{groups[n]}/ST_conf"][()][i, k] for n in ns])
+                    lo, hi = st - conf, st + conf
                     ax.plot(ns, st, "-o", ms=3, color=colors[c], label=f"{params[i]} ST")
                     ax.fill_between(ns, lo, hi, color=colors[c], alpha=0.15, lw=0)
                     ax.plot(ns, s1, "--", color=colors[c], lw=1, label=f"{params[i]} S1")
@@ -206,8 +228,8 @@ def _plot_sobol(f, out_dir, stem) -> List[str]:
                 ax.set_ylabel("index [1]")
                 ax.set_title(outputs[k], fontsize=10)
                 ax.legend(fontsize=6, ncol=2)
-            fig.suptitle(sp.title_of(f, "Convergence of the Sobol' indices with N (solid ST with "
-                                        "95 % interval, dashed S1; top 4 by ST)"))
+            fig.suptitle(sp.title_of(f, f"Convergence of the Sobol' indices with N (solid ST +- ST_conf "
+                                        f"at {level:g} %, dashed S1; top 4 by ST)"))
             fig.tight_layout(rect=(0, 0, 1, 0.96))
             paths.append(sp.save(fig, out_dir, stem, "sobol-convergence"))
     return paths

@@ -118,7 +118,7 @@ int run_calibrate(const StudyOptions& o, CommandContext& ctx) {
     fill_provenance(prov, config, ctx, "calibrate", threads, ranks);
     io::write_calibration_h5(output, results, prov);
     report_written(ctx, io::calibration_report(results), output, study.summary(summary.ok()),
-                   [&](const std::filesystem::path& p) { io::write_calibration_json(p, config.name, results); });
+                   [&](const std::filesystem::path& p) { io::write_calibration_json(p, config.name, results, prov); });
   }
   study.finish();
   if (!summary.ok()) {

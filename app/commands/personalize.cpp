@@ -83,7 +83,7 @@ int run_personalize(const StudyOptions& o, CommandContext& ctx) {
     fill_provenance(prov, config, ctx, "personalize", threads, ctx.ranks);
     io::write_roukf_h5(output, results, prov);
     report_written(ctx, io::roukf_report(results), output, study.summary(summary.ok()),
-                   [&](const std::filesystem::path& p) { io::write_roukf_json(p, config.name, results); });
+                   [&](const std::filesystem::path& p) { io::write_roukf_json(p, config.name, results, prov); });
   }
   study.finish();
   if (!summary.ok()) {

@@ -73,7 +73,7 @@ int run_sensitivity(const StudyOptions& o, CommandContext& ctx) {
     h5.commit();
     report_written(ctx, io::sensitivity_report(setup, summary), output, run.summary(study.ok()),
                    [&](const std::filesystem::path& p) {
-                     const auto js = io::sensitivity_json(config.name, setup, summary, output.string());
+                     const auto js = io::sensitivity_json(config.name, setup, summary, output.string(), prov);
                      io::write_text_file(p, [&](std::ostream& f) { f << js.dump(2) << "\n"; });
                    });
   }

@@ -97,7 +97,7 @@ int run_simulate(const SimulateOptions& o, CommandContext& ctx) {
     h5.commit();
   }
   if (!o.csv.empty()) io::write_trajectory_csv(o.csv, result.trajectory);
-  if (!o.summary.empty()) io::write_indicators_json(o.summary, indicators);
+  if (!o.summary.empty()) io::write_indicators_json(o.summary, indicators, &prov);
 
   ctx.out << config.name << " (" << simulator->name() << "): periodic after " << result.info.beats
           << " beats\n"

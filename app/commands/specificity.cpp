@@ -115,7 +115,7 @@ int run_specificity_command(const StudyOptions& o, CommandContext& ctx) {
     }
     report_written(ctx, io::specificity_report(config.name, setup, summary, run), output, study.summary(summary.ok()),
                    [&](const std::filesystem::path& p) {
-                     const auto j = io::specificity_json(config.name, setup, summary, run, output.string());
+                     const auto j = io::specificity_json(config.name, setup, summary, run, output.string(), prov);
                      io::write_text_file(p, [&](std::ostream& f) { f << j.dump(2) << "\n"; });
                    });
   }

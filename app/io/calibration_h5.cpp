@@ -4,6 +4,7 @@
 #include "app/io/hdf5_writer.h"
 #include "model/units.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <sstream>
@@ -62,6 +63,10 @@ void write_calibration_h5(const std::filesystem::path& path, const CalibrationRe
   if (!problem.observation_file.empty()) {
     h5.set_attribute("/observations", "file", problem.observation_file.string());
   }
+  // Dimension scales (H5DS): the observation and parameter name lists label the axes they index.
+  const std::string obs_axis = "/observations/names", par_axis = "/estimate/names";
+  h5.attach_scale("/observations/y", 0, obs_axis, "observation");
+  h5.attach_scale("/observations/noise_std", 0, obs_axis, "observation");
 
   // Estimate.
   const std::string per = "per parameter, see /estimate/units";
@@ -81,20 +86,38 @@ void write_calibration_h5(const std::filesystem::path& path, const CalibrationRe
   h5.write_vector("/estimate/eta_prior_std", summary.eta_prior_std, "1");
   h5.write_vector("/estimate/eta_mean", summary.eta_mean, "1");
   h5.write_matrix("/estimate/eta_covariance", summary.eta_covariance, "1", names, names);
+  for (const char* v : {"prior_mean", "prior_std", "mean", "sigma_mean", "std", "eta_prior_mean",
+                        "eta_prior_std", "eta_mean"}) {
+    h5.attach_scale(std::string("/estimate/") + v, 0, par_axis, "parameter");
+  }
+  h5.attach_scale("/estimate/eta_covariance", 0, par_axis, "parameter");
+  h5.attach_scale("/estimate/eta_covariance", 1, par_axis, "parameter");
 
   // Fit before and after, per observation.
   h5.write_vector("/fit/before", shown(summary.fit_before), obs_units);
   h5.write_vector("/fit/after", shown(summary.fit_after), obs_units);
   h5.write_vector("/fit/relative_error_before", summary.metrics_before.relative_error_percent, "%");
   h5.write_vector("/fit/relative_error_after", summary.metrics_after.relative_error_percent, "%");
+  h5.attach_scale("/fit/before", 0, obs_axis, "observation");
+  h5.attach_scale("/fit/after", 0, obs_axis, "observation");
+  if (summary.metrics_before.relative_error_percent.size() == m) {
+    h5.attach_scale("/fit/relative_error_before", 0, obs_axis, "observation");
+  }
+  if (summary.metrics_after.relative_error_percent.size() == m) {
+    h5.attach_scale("/fit/relative_error_after", 0, obs_axis, "observation");
+  }
 
-  // Every iteration's ensemble.
+  // Every iteration's ensemble, zero-padded so the groups sort ("/ensemble/07" < "/ensemble/12").
+  int last_iteration = 0;
+  for (const auto& it : summary.iterations) last_iteration = std::max(last_iteration, it.iteration);
   for (const auto& it : summary.iterations) {
-    const std::string g = "/ensemble/" + std::to_string(it.iteration);
+    const std::string g = "/ensemble/" + padded_number(it.iteration, last_iteration);
     h5.write_matrix(g + "/theta", it.theta_members, per, {}, names);
     Eigen::MatrixXd z = it.Z;
     for (Eigen::Index r = 0; r < z.rows(); ++r) z.row(r) = z.row(r).cwiseProduct(disp.factor.transpose());
     h5.write_matrix(g + "/z", z, obs_units, {}, obs.names);
+    h5.attach_scale(g + "/theta", 1, par_axis, "parameter");
+    h5.attach_scale(g + "/z", 1, obs_axis, "observation");
     std::vector<std::int64_t> codes;
     std::vector<std::string> messages;
     for (const auto& s : it.status) {
@@ -106,6 +129,10 @@ void write_calibration_h5(const std::filesystem::path& path, const CalibrationRe
     h5.write_vector(g + "/eta_center", it.eta_center, "1");
     h5.write_vector(g + "/eta_mean", it.eta_mean, "1");
     h5.write_matrix(g + "/eta_covariance", it.P, "1", names, names);
+    h5.attach_scale(g + "/eta_center", 0, par_axis, "parameter");
+    h5.attach_scale(g + "/eta_mean", 0, par_axis, "parameter");
+    h5.attach_scale(g + "/eta_covariance", 0, par_axis, "parameter");
+    h5.attach_scale(g + "/eta_covariance", 1, par_axis, "parameter");
     h5.set_attribute(g, "attempts", it.attempts);
     h5.set_attribute(g, "spread_factor", it.spread_factor);
     h5.set_attribute(g, "step", it.step);
@@ -133,6 +160,8 @@ void write_calibration_h5(const std::filesystem::path& path, const CalibrationRe
     h5.write_vector("/global_start/screen_objective", screen, "1");
     h5.write_vector("/global_start/objective", final_objective, "1");
     h5.write_strings("/global_start/status", status);
+    h5.attach_scale("/global_start/theta_start", 1, par_axis, "parameter");
+    h5.attach_scale("/global_start/theta", 1, par_axis, "parameter");
   }
   std::vector<std::string> actions;
   for (const auto& a : summary.actions) actions.push_back(a.describe());

@@ -44,9 +44,10 @@ struct CalibrationResults {
 // The results file (written atomically; provenance.end_utc is set here).
 void write_calibration_h5(const std::filesystem::path& path, const CalibrationResults& results,
                           Provenance provenance);
-// {"kind": "calibrate", "parameters": {...}, "fit": {...}, ...}, written atomically.
+// {"kind": "calibrate", "parameters": {...}, "fit": {...}, ..., "provenance": {...}}, written
+// atomically (provenance_json, app/io/results.h; end_utc now if not set).
 void write_calibration_json(const std::filesystem::path& path, const std::string& name,
-                            const CalibrationResults& results);
+                            const CalibrationResults& results, const Provenance& provenance);
 // The brief report, the parameter table and the fit table for the terminal.
 std::string calibration_report(const CalibrationResults& results);
 

@@ -44,7 +44,7 @@ Shown shown_values(const CalibrationResults& results) {
 }  // namespace
 
 void write_calibration_json(const std::filesystem::path& path, const std::string& name,
-                            const CalibrationResults& results) {
+                            const CalibrationResults& results, const Provenance& provenance) {
   const auto& [summary, obs, disp, units, before, after] = shown_values(results);
 
   nlohmann::ordered_json j;
@@ -104,6 +104,7 @@ void write_calibration_json(const std::filesystem::path& path, const std::string
   j["rms_normalised_residual"] = summary.metrics_after.rms_normalised_residual;
   if (results.fit_report) add_fit_report_json(j, *results.fit_report);
   if (results.map) add_least_squares_json(j, *results.map, units);
+  j["provenance"] = provenance_json(provenance);
   write_text_file(path, [&](std::ostream& f) { f << j.dump(2) << "\n"; });
 }
 

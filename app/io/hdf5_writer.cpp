@@ -3,6 +3,7 @@
 #include "app/errors.h"
 
 #include <Eigen/Core>
+#include <hdf5_hl.h>
 
 #include <sstream>
 
@@ -213,6 +214,25 @@ void Hdf5Writer::set_attribute(const std::string& object, const std::string& nam
                                const std::vector<double>& values) {
   const hsize_t dims[1] = {values.size()};
   write_attribute(object, name, H5T_NATIVE_DOUBLE, 1, dims, values.data());
+}
+
+void Hdf5Writer::attach_scale(const std::string& dataset, int dim, const std::string& scale,
+                              const std::string& label) {
+  if (id_ < 0) throw RunFailure("write to a committed HDF5 file " + path().string());
+  Handle set(H5Dopen2(id_, dataset.c_str(), H5P_DEFAULT), H5Dclose);
+  Handle sc(H5Dopen2(id_, scale.c_str(), H5P_DEFAULT), H5Dclose);
+  if (!set.ok() || !sc.ok()) {
+    throw RunFailure("cannot attach the dimension scale " + scale + " to " + dataset + " in " +
+                     path().string() + ": no such dataset");
+  }
+  if (H5DSis_scale(sc.get()) <= 0 &&
+      H5DSset_scale(sc.get(), label.empty() ? nullptr : label.c_str()) < 0) {
+    throw RunFailure("cannot make " + scale + " a dimension scale in " + path().string());
+  }
+  if (H5DSattach_scale(set.get(), sc.get(), static_cast<unsigned>(dim)) < 0) {
+    throw RunFailure("cannot attach the dimension scale " + scale + " to dimension " +
+                     std::to_string(dim) + " of " + dataset + " in " + path().string());
+  }
 }
 
 // ---------------------------------------------------------------------------------------------

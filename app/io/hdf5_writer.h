@@ -62,6 +62,12 @@ class Hdf5Writer {
   void set_attribute(const std::string& object, const std::string& name,
                      const std::vector<double>& values);
 
+  // HDF5 dimension scales (H5DS, hdf5_hl), which h5py (`dims`), netCDF-4 and xarray read as
+  // coordinates: makes the 1-D dataset `scale` a dimension scale named `label` (the first time)
+  // and attaches it to dimension `dim` (0 = rows) of `dataset`. Both must exist.
+  void attach_scale(const std::string& dataset, int dim, const std::string& scale,
+                    const std::string& label = "");
+
  private:
   void write_dataset(const std::string& path, hid_t type, int rank, const hsize_t* dims,
                      const void* data);

@@ -5,6 +5,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <ctime>
@@ -25,6 +26,38 @@ std::string utc_now() {
   return s.str();
 }
 
+namespace {
+const char* const kUnitsConvention =
+    "curves and indices in clinical units (mL, mmHg, mL/s, mmHg/s, s); parameters "
+    "in the SI unit of their model; each dataset's 'units' attribute names its unit";
+}  // namespace
+
+nlohmann::ordered_json provenance_json(const Provenance& p) {
+  nlohmann::ordered_json j;
+  j["sigmaheart_version"] = version();
+  j["git_describe"] = git_describe();
+  j["kind"] = p.kind;
+  j["name"] = p.name;
+  j["config_file"] = p.config_file;
+  j["config"] = p.config_text;
+  j["overrides"] = p.overrides;
+  j["command_line"] = p.command_line;
+  j["seed"] = p.seed ? nlohmann::ordered_json(*p.seed) : nlohmann::ordered_json(nullptr);
+  j["start_utc"] = p.start_utc;
+  j["end_utc"] = p.end_utc.empty() ? utc_now() : p.end_utc;
+  j["threads"] = p.threads;
+  j["ranks"] = p.ranks;
+  j["units_convention"] = kUnitsConvention;
+  return j;
+}
+
+std::string padded_number(long long value, long long largest) {
+  const auto width = std::to_string(std::max(largest, 0LL)).size();
+  std::string s = std::to_string(value);
+  if (value >= 0 && s.size() < width) s.insert(0, width - s.size(), '0');
+  return s;
+}
+
 void write_provenance(Hdf5Writer& out, const Provenance& p) {
   out.set_attribute("/", "sigmaheart_version", version());
   out.set_attribute("/", "git_describe", git_describe());
@@ -39,9 +72,7 @@ void write_provenance(Hdf5Writer& out, const Provenance& p) {
   out.set_attribute("/", "end_utc", p.end_utc);
   out.set_attribute("/", "threads", p.threads);
   out.set_attribute("/", "ranks", p.ranks);
-  out.set_attribute("/", "units_convention",
-                    "curves and indices in clinical units (mL, mmHg, mL/s, mmHg/s, s); parameters "
-                    "in the SI unit of their model; each dataset's 'units' attribute names its unit");
+  out.set_attribute("/", "units_convention", kUnitsConvention);
   out.write_text("/config", p.config_text);
   out.set_attribute("/config", "file", p.config_file);
 }
@@ -80,6 +111,7 @@ void write_trajectory(Hdf5Writer& out, const std::string& group, const model::Tr
     const std::string path = group + "/" + ch.name;
     out.write_vector(path, t.values.col(static_cast<Eigen::Index>(c)) * d.from_si, d.unit);
     if (!ch.doc.empty()) out.set_attribute(path, "doc", ch.doc);
+    out.attach_scale(path, 0, group + "/time", "time");  // H5DS: the time axis of the curve
     names.push_back(ch.name);
   }
   out.set_attribute(group, "channels", names);
@@ -117,13 +149,14 @@ void write_indicators(Hdf5Writer& out, const std::string& group,
 }
 
 void write_indicators_json(const std::filesystem::path& path,
-                           const std::vector<Indicator>& indicators) {
+                           const std::vector<Indicator>& indicators, const Provenance* provenance) {
   nlohmann::ordered_json j = nlohmann::ordered_json::object();
   for (const auto& i : indicators) {
     // JSON has no NaN: a value that could not be computed is null.
     j[i.name] = {{"value", std::isfinite(i.value) ? nlohmann::ordered_json(i.value) : nullptr},
                  {"unit", i.unit}};
   }
+  if (provenance) j["provenance"] = provenance_json(*provenance);
   write_text_file(path, [&](std::ostream& s) { s << j.dump(2) << "\n"; });
 }
 

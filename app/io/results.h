@@ -12,6 +12,7 @@
 #include "model/simulator.h"
 
 #include <Eigen/Core>
+#include <nlohmann/json.hpp>
 
 #include <cstdint>
 #include <filesystem>
@@ -42,6 +43,15 @@ struct Provenance {
   int threads = 1;
   int ranks = 1;
 };
+// The same fields as a JSON object, the `provenance` key of every JSON summary: sigmaheart_version,
+// git_describe, kind, name, config_file, config (the text), overrides, command_line, seed (null if
+// none), start_utc, end_utc (now, if not yet set), threads, ranks, units_convention.
+nlohmann::ordered_json provenance_json(const Provenance& p);
+
+// `value` zero-padded to the number of digits of `largest`, so numbered HDF5 groups sort in
+// order as text (h5py and xarray list members alphabetically): padded_number(7, 12) = "07".
+std::string padded_number(long long value, long long largest);
+
 // Root attributes (sigmaheart_version, git_describe, kind, name, config, config_file, overrides,
 // command_line, seed if any, start_utc, end_utc, threads, ranks, units_convention) and the
 // /config text dataset.
@@ -70,9 +80,11 @@ struct Indicator {
 // Attributes "<name>" (value) and "<name>.units" on `group` (created if missing).
 void write_indicators(Hdf5Writer& out, const std::string& group,
                       const std::vector<Indicator>& indicators);
-// {"EDV": {"value": 142.1, "unit": "mL"}, ...}, written atomically.
+// {"EDV": {"value": 142.1, "unit": "mL"}, ..., "provenance": {...}} (the key only when
+// `provenance` is given), written atomically.
 void write_indicators_json(const std::filesystem::path& path,
-                           const std::vector<Indicator>& indicators);
+                           const std::vector<Indicator>& indicators,
+                           const Provenance* provenance = nullptr);
 // An aligned table "name  value unit  doc" for the terminal.
 std::string format_indicators(const std::vector<Indicator>& indicators);
 

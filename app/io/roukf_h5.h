@@ -25,8 +25,9 @@ struct RoukfResults {
 // The results file (written atomically; provenance.end_utc is set here).
 void write_roukf_h5(const std::filesystem::path& path, const RoukfResults& results,
                     Provenance provenance);
+// The JSON summary, with a `provenance` key (provenance_json, app/io/results.h).
 void write_roukf_json(const std::filesystem::path& path, const std::string& name,
-                      const RoukfResults& results);
+                      const RoukfResults& results, const Provenance& provenance);
 // The brief report and one line per parameter (Pa shown as kPa), with the truth when given.
 std::string roukf_report(const RoukfResults& results);
 

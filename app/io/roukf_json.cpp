@@ -24,7 +24,7 @@ std::string interval(const std::string& lo, const std::string& hi) {
 }  // namespace
 
 void write_roukf_json(const std::filesystem::path& path, const std::string& name,
-                      const RoukfResults& results) {
+                      const RoukfResults& results, const Provenance& provenance) {
   const PersonalizeProblem& problem = *results.problem;
   const estimation::RoukfSummary& summary = *results.summary;
   const Eigen::VectorXd value = results.value(), std = results.std();
@@ -77,6 +77,7 @@ void write_roukf_json(const std::filesystem::path& path, const std::string& name
     const int passes = summary.passes_to_within_10_percent;
     j["passes_to_within_10_percent"] = passes > 0 ? nlohmann::ordered_json(passes) : nullptr;
   }
+  j["provenance"] = provenance_json(provenance);
   write_text_file(path, [&](std::ostream& f) { f << j.dump(2) << "\n"; });
 }
 

@@ -1,6 +1,7 @@
 #include "app/io/sensitivity_h5.h"
 
 #include "app/io/display.h"
+#include "app/io/results.h"
 
 #include <algorithm>
 #include <cmath>
@@ -53,6 +54,16 @@ std::string sampling(const estimation::PriorParameter& q) {
 
 int top_count(const SensitivitySetup& setup) { return std::min(setup.prior.size(), 6); }
 
+const std::string kParameterAxis = kA + "/parameters/names";
+const std::string kOutputAxis = kA + "/outputs/names";
+
+// Attaches the parameter and output name lists as HDF5 dimension scales of a dataset (empty: no
+// scale on that dimension), so h5py's `dims` and xarray label the axes.
+void axes(Hdf5Writer& h5, const std::string& dataset, const std::string& rows, const std::string& cols = "") {
+  if (!rows.empty()) h5.attach_scale(dataset, 0, rows, rows == kParameterAxis ? "parameter" : "output");
+  if (!cols.empty()) h5.attach_scale(dataset, 1, cols, cols == kParameterAxis ? "parameter" : "output");
+}
+
 // /analysis/parameters, /analysis/outputs, /analysis/design and /analysis/failed.
 void write_common(Hdf5Writer& h5, const SensitivitySetup& setup, const sh::StudySummary& r,
                   const OutputDisplay& d) {
@@ -72,10 +83,14 @@ void write_common(Hdf5Writer& h5, const SensitivitySetup& setup, const sh::Study
   h5.write_vector(kA + "/outputs/from_si", d.factor, "1");
   h5.set_attribute(kA, "method", to_string(setup.method));
   h5.set_attribute(kA, "model", setup.model_kind);
+  for (const char* v : {"lower", "upper", "nominal"}) axes(h5, kA + "/parameters/" + v, kParameterAxis);
+  axes(h5, kA + "/outputs/from_si", kOutputAxis);
 
   const std::string g = kA + "/design";
   h5.write_matrix(g + "/theta", r.thetas, kPerParameter, {}, names);
   h5.write_matrix(g + "/z", shown(r.Z, d), kPerOutput, {}, d.names);
+  axes(h5, g + "/theta", "", kParameterAxis);
+  axes(h5, g + "/z", "", kOutputAxis);
   std::vector<std::int64_t> codes(static_cast<size_t>(r.thetas.rows()), 0);
   for (const auto& f : r.failed_runs) codes[static_cast<size_t>(f.run)] = static_cast<std::int64_t>(f.status.code);
   h5.write_ints(g + "/status", codes);
@@ -115,6 +130,7 @@ void write_common(Hdf5Writer& h5, const SensitivitySetup& setup, const sh::Study
   h5.write_strings(fg + "/code", codes_text);
   h5.write_strings(fg + "/message", messages);
   h5.write_matrix(fg + "/theta", thetas, kPerParameter, {}, names);
+  axes(h5, fg + "/theta", "", kParameterAxis);
 }
 
 // The method's tables, one overload per Summary: HDF5 group, JSON and report lines.
@@ -124,6 +140,12 @@ struct MethodWriter {
   std::ostringstream* report = nullptr;     // terminal when set
   const SensitivitySetup& setup;
   const OutputDisplay& d;
+
+  // A parameter x output table with its names and its two dimension scales.
+  void table(const std::string& path, const Eigen::MatrixXd& values, const std::string& unit) const {
+    h5->write_matrix(path, values, unit, setup.prior.names(), d.names);
+    axes(*h5, path, kParameterAxis, kOutputAxis);
+  }
 
   // JSON indices/<output k>: its unit, `extra` keys, the ranking and entry(i) per parameter i.
   template <class Entry>
@@ -150,10 +172,13 @@ struct MethodWriter {
       h5->write_vector(g + "/theta_low", r.theta_low, kPerParameter);
       h5->write_vector(g + "/theta_high", r.theta_high, kPerParameter);
       h5->write_vector(g + "/z_nominal", z_nom, kPerOutput);
-      h5->write_matrix(g + "/delta_low", dl, kPerOutput, names, d.names);
-      h5->write_matrix(g + "/delta_high", dh, kPerOutput, names, d.names);
-      h5->write_matrix(g + "/swing", swing, kPerOutput, names, d.names);
-      h5->write_matrix(g + "/normalised", r.normalised, "1", names, d.names);
+      axes(*h5, g + "/theta_low", kParameterAxis);
+      axes(*h5, g + "/theta_high", kParameterAxis);
+      axes(*h5, g + "/z_nominal", kOutputAxis);
+      table(g + "/delta_low", dl, kPerOutput);
+      table(g + "/delta_high", dh, kPerOutput);
+      table(g + "/swing", swing, kPerOutput);
+      table(g + "/normalised", r.normalised, "1");
       h5->set_attribute(g + "/normalised", "description", "elasticity d ln z / d ln theta (central difference)");
       h5->set_attribute(g, "mode", sh::to_string(setup.oat.mode));
       h5->set_attribute(g, "relative_change", setup.oat.relative_change);
@@ -193,15 +218,15 @@ struct MethodWriter {
     if (h5) {
       const std::string g = kA + "/morris";
       const std::string u = kPerOutput + " (change over the whole range of the parameter)";
-      h5->write_matrix(g + "/mu", mu, u, names, d.names);
-      h5->write_matrix(g + "/mu_star", mus, u, names, d.names);
-      h5->write_matrix(g + "/sigma", sg, u, names, d.names);
-      h5->write_matrix(g + "/mu_low", shown(r.mu_low, d), u, names, d.names);
-      h5->write_matrix(g + "/mu_high", shown(r.mu_high, d), u, names, d.names);
-      h5->write_matrix(g + "/mu_star_low", shown(r.mu_star_low, d), u, names, d.names);
-      h5->write_matrix(g + "/mu_star_high", shown(r.mu_star_high, d), u, names, d.names);
-      h5->write_matrix(g + "/sigma_low", shown(r.sigma_low, d), u, names, d.names);
-      h5->write_matrix(g + "/sigma_high", shown(r.sigma_high, d), u, names, d.names);
+      table(g + "/mu", mu, u);
+      table(g + "/mu_star", mus, u);
+      table(g + "/sigma", sg, u);
+      table(g + "/mu_low", shown(r.mu_low, d), u);
+      table(g + "/mu_high", shown(r.mu_high, d), u);
+      table(g + "/mu_star_low", shown(r.mu_star_low, d), u);
+      table(g + "/mu_star_high", shown(r.mu_star_high, d), u);
+      table(g + "/sigma_low", shown(r.sigma_low, d), u);
+      table(g + "/sigma_high", shown(r.sigma_high, d), u);
       h5->write_ints(g + "/dropped_trajectories",
                      std::vector<std::int64_t>(r.dropped_trajectories.begin(), r.dropped_trajectories.end()));
       h5->set_attribute(g + "/dropped_trajectories", "units", "1");
@@ -247,16 +272,51 @@ struct MethodWriter {
     }
   }
 
+  // SALib's names (Herman & Usher 2017, JOSS 2:97, sobol.analyze): S1, S1_conf, ST, ST_conf, and
+  // with second order S2, S2_conf; the percentile bootstrap interval as *_percentile_low/high.
   void write_sobol_tables(const std::string& c, const sh::SobolEstimate& e) const {
-    const std::vector<std::string> names = setup.prior.names();
-    h5->write_matrix(c + "/S1", e.S1, "1", names, d.names);
-    h5->write_matrix(c + "/ST", e.ST, "1", names, d.names);
-    h5->write_matrix(c + "/S1_low", e.S1_low, "1", names, d.names);
-    h5->write_matrix(c + "/S1_high", e.S1_high, "1", names, d.names);
-    h5->write_matrix(c + "/ST_low", e.ST_low, "1", names, d.names);
-    h5->write_matrix(c + "/ST_high", e.ST_high, "1", names, d.names);
+    const std::string conf = "half-width of the " + format_number(100.0 * setup.sobol.confidence, 3) +
+                             " % bootstrap interval: z x bootstrap std (as SALib's sobol.analyze)";
+    const std::string pct = "percentile bootstrap interval at " +
+                            format_number(100.0 * setup.sobol.confidence, 3) + " %";
+    table(c + "/S1", e.S1, "1");
+    table(c + "/S1_conf", e.S1_conf, "1");
+    h5->set_attribute(c + "/S1_conf", "description", conf);
+    table(c + "/ST", e.ST, "1");
+    table(c + "/ST_conf", e.ST_conf, "1");
+    h5->set_attribute(c + "/ST_conf", "description", conf);
+    for (const char* name : {"S1_percentile_low", "S1_percentile_high", "ST_percentile_low", "ST_percentile_high"}) {
+      const std::string n(name);
+      const Eigen::MatrixXd& m = n == "S1_percentile_low"    ? e.S1_low
+                                 : n == "S1_percentile_high" ? e.S1_high
+                                 : n == "ST_percentile_low"  ? e.ST_low
+                                                             : e.ST_high;
+      table(c + "/" + n, m, "1");
+      h5->set_attribute(c + "/" + n, "description", pct);
+    }
     if (e.output_std.size() == d.factor.size()) {
       h5->write_vector(c + "/output_std", e.output_std.cwiseProduct(d.factor), kPerOutput);
+      axes(*h5, c + "/output_std", kOutputAxis);
+    }
+    if (e.S2.empty()) return;
+    // Second order: one p x p matrix per output (row i, column k: S2_ik for i < k; NaN on and
+    // below the diagonal), named by the output.
+    const std::vector<std::string> names = setup.prior.names();
+    for (const char* group : {"S2", "S2_conf"}) {
+      const std::string g = c + "/" + group;
+      const auto& mats = std::string(group) == "S2" ? e.S2 : e.S2_conf;
+      h5->create_group(g);
+      h5->set_attribute(g, "outputs", d.names);
+      h5->set_attribute(g, "description",
+                        std::string(group) == "S2"
+                            ? "second-order index S2(i, k), i < k, per output (Saltelli 2002; SALib S2); "
+                              "NaN on and below the diagonal"
+                            : conf);
+      for (size_t k = 0; k < mats.size(); ++k) {
+        const std::string path = g + "/" + d.names[k];
+        h5->write_matrix(path, mats[k], "1", names, names);
+        axes(*h5, path, kParameterAxis, kParameterAxis);
+      }
     }
   }
 
@@ -274,14 +334,17 @@ struct MethodWriter {
       h5->set_attribute(g, "confidence", setup.sobol.confidence);
       h5->set_attribute(g, "bootstrap", setup.sobol.bootstrap_samples);
       h5->set_attribute(g, "scrambling", sh::to_string(setup.sobol.scrambling));
+      h5->set_attribute(g, "second_order", r.second_order ? 1 : 0);
       h5->set_attribute(g, "estimators",
-                        "S1 Saltelli et al. 2010 (Table 2 b); ST Jansen 1999 (Saltelli 2010 Table 2 f); "
-                        "percentile bootstrap over design rows");
+                        std::string("S1 Saltelli et al. 2010 (Table 2 b); ST Jansen 1999 (Saltelli 2010 Table 2 f); ") +
+                            (r.second_order ? "S2 Saltelli 2002 (as SALib); " : "") +
+                            "bootstrap over design rows: *_conf = z x std (SALib), *_percentile_low/high");
       std::vector<std::int64_t> levels;
       for (const auto& e : r.convergence) {
         levels.push_back(e.n);
         if (e.n == r.N) write_sobol_tables(g, e);
-        write_sobol_tables(g + "/convergence/n" + std::to_string(e.n), e);
+        // Zero-padded to the width of N, so the groups sort by size ("n0128" < "n1024").
+        write_sobol_tables(g + "/convergence/n" + padded_number(e.n, r.N), e);
       }
       if (!levels.empty()) {
         h5->write_ints(g + "/convergence/n", levels);
@@ -295,6 +358,10 @@ struct MethodWriter {
     }
     if (js) {
       (*js)["N"] = r.N;
+      (*js)["second_order"] = r.second_order;
+      (*js)["confidence"] = setup.sobol.confidence;
+      (*js)["conf"] = "S1_conf, ST_conf, S2_conf: half-width of the bootstrap interval at the confidence "
+                      "level, z x bootstrap std (as SALib's sobol.analyze)";
       (*js)["imputed"] = r.imputed;
     }
     if (!r.ok()) return;
@@ -305,9 +372,25 @@ struct MethodWriter {
       if (js) {
         nlohmann::ordered_json extra = nlohmann::ordered_json::object();
         if (has_std) extra["std"] = e.output_std(k) * d.factor(k);
+        if (!e.S2.empty()) {
+          // {"x1": {"x3": S2_13, ...}, ...}: pairs i < k only.
+          const auto kk = static_cast<size_t>(k);
+          nlohmann::ordered_json s2 = nlohmann::ordered_json::object(), s2c = s2;
+          for (size_t i = 0; i < names.size(); ++i) {
+            for (size_t l = i + 1; l < names.size(); ++l) {
+              const auto ii = static_cast<Eigen::Index>(i), ll = static_cast<Eigen::Index>(l);
+              s2[names[i]][names[l]] = e.S2[kk](ii, ll);
+              s2c[names[i]][names[l]] = e.S2_conf[kk](ii, ll);
+            }
+          }
+          extra["S2"] = s2;
+          extra["S2_conf"] = s2c;
+        }
         json_indices(k, order, extra, [&](int i) -> nlohmann::ordered_json {
-          return {{"S1", e.S1(i, k)}, {"S1_low", e.S1_low(i, k)}, {"S1_high", e.S1_high(i, k)},
-                  {"ST", e.ST(i, k)}, {"ST_low", e.ST_low(i, k)}, {"ST_high", e.ST_high(i, k)}};
+          return {{"S1", e.S1(i, k)}, {"S1_conf", e.S1_conf(i, k)}, {"ST", e.ST(i, k)},
+                  {"ST_conf", e.ST_conf(i, k)},
+                  {"S1_percentile_interval", {e.S1_low(i, k), e.S1_high(i, k)}},
+                  {"ST_percentile_interval", {e.ST_low(i, k), e.ST_high(i, k)}}};
         });
       }
       if (report) {
@@ -323,6 +406,21 @@ struct MethodWriter {
                   << e.ST(i, k) << " [" << e.S1(i, k) << "]" << std::defaultfloat;
         }
         *report << "\n";
+        if (!e.S2.empty()) {
+          const Eigen::MatrixXd& s2 = e.S2[static_cast<size_t>(k)];
+          int bi = -1, bl = -1;
+          for (int i = 0; i < s2.rows(); ++i) {
+            for (int l = i + 1; l < s2.cols(); ++l) {
+              if (std::isfinite(s2(i, l)) && (bi < 0 || s2(i, l) > s2(bi, bl))) bi = i, bl = l;
+            }
+          }
+          if (bi >= 0) {
+            *report << "  largest interaction S2(" << names[static_cast<size_t>(bi)] << ", "
+                    << names[static_cast<size_t>(bl)] << ") = " << std::fixed << std::setprecision(3)
+                    << s2(bi, bl) << " +- " << e.S2_conf[static_cast<size_t>(k)](bi, bl) << std::defaultfloat
+                    << "\n";
+          }
+        }
       }
     }
     if (report && setup.exact) *report << exact_table(r, *setup.exact);
@@ -337,6 +435,15 @@ struct MethodWriter {
         << " (" << std::showpos << r.estimate.S1(ii, 0) - e.S1(ii) << std::noshowpos << ")  ST "
         << e.ST(ii) << " (" << std::showpos << r.estimate.ST(ii, 0) - e.ST(ii) << std::noshowpos
         << ")\n";
+    }
+    if (!r.estimate.S2.empty() && e.S2.rows() == static_cast<Eigen::Index>(r.parameters.size())) {
+      for (Eigen::Index i = 0; i < e.S2.rows(); ++i) {
+        for (Eigen::Index k = i + 1; k < e.S2.cols(); ++k) {
+          s << "  S2(" << r.parameters[static_cast<size_t>(i)] << ", " << r.parameters[static_cast<size_t>(k)]
+            << ") " << e.S2(i, k) << " (" << std::showpos << r.estimate.S2[0](i, k) - e.S2(i, k)
+            << std::noshowpos << ")\n";
+        }
+      }
     }
     return s.str();
   }
@@ -356,12 +463,19 @@ void write_sensitivity_h5(Hdf5Writer& h5, const SensitivitySetup& setup,
   if (setup.exact) {
     h5.write_vector(kA + "/exact/S1", setup.exact->S1, "1");
     h5.write_vector(kA + "/exact/ST", setup.exact->ST, "1");
+    axes(h5, kA + "/exact/S1", kParameterAxis);
+    axes(h5, kA + "/exact/ST", kParameterAxis);
+    if (setup.exact->S2.size() > 0) {
+      const auto names = setup.prior.names();
+      h5.write_matrix(kA + "/exact/S2", setup.exact->S2, "1", names, names);
+      axes(h5, kA + "/exact/S2", kParameterAxis, kParameterAxis);
+    }
   }
 }
 
 nlohmann::ordered_json sensitivity_json(const std::string& name, const SensitivitySetup& setup,
                                         const SensitivitySummary& summary,
-                                        const std::string& results_file) {
+                                        const std::string& results_file, const Provenance& provenance) {
   const OutputDisplay d = output_display(setup);
   const sh::StudySummary& r = study_of(summary);
   nlohmann::ordered_json js;
@@ -380,6 +494,15 @@ nlohmann::ordered_json sensitivity_json(const std::string& name, const Sensitivi
   std::visit(MethodWriter{nullptr, &js, nullptr, setup, d}, summary);
   if (setup.exact) {
     js["exact"] = {{"S1", to_std_vector(setup.exact->S1)}, {"ST", to_std_vector(setup.exact->ST)}};
+    if (setup.method == SensitivityMethod::kSobol && setup.sobol.second_order && setup.exact->S2.size() > 0) {
+      const auto names = setup.prior.names();
+      for (size_t i = 0; i < names.size(); ++i) {
+        for (size_t l = i + 1; l < names.size(); ++l) {
+          js["exact"]["S2"][names[i]][names[l]] =
+              setup.exact->S2(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(l));
+        }
+      }
+    }
   }
   js["valid"] = r.ok();
   js["status"] = sh::to_string(r.status);
@@ -390,6 +513,7 @@ nlohmann::ordered_json sensitivity_json(const std::string& name, const Sensitivi
                                  {"code", model::to_string(f.status.code)}, {"message", f.status.message}});
   }
   js["results_file"] = results_file;
+  js["provenance"] = provenance_json(provenance);
   return js;
 }
 

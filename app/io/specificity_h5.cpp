@@ -198,7 +198,7 @@ void write_specificity_h5(Hdf5Writer& h5, const SpecificitySetup& setup,
 
 nlohmann::ordered_json specificity_json(const std::string& name, const SpecificitySetup& setup,
                                         const sp::SpecificitySummary& s, const SpecificityRun& run,
-                                        const std::string& results_file) {
+                                        const std::string& results_file, const Provenance& provenance) {
   nlohmann::ordered_json j;
   j["kind"] = "specificity";
   j["name"] = name;
@@ -261,6 +261,7 @@ nlohmann::ordered_json specificity_json(const std::string& name, const Specifici
                        {"message", s.classifier.message}};
   }
   j["results_file"] = results_file;
+  j["provenance"] = provenance_json(provenance);
   return j;
 }
 

@@ -16,6 +16,7 @@
 #pragma once
 
 #include "app/io/hdf5_writer.h"
+#include "app/io/results.h"
 #include "app/specificity_setup.h"
 #include "estimation/specificity/specificity.h"
 
@@ -39,7 +40,8 @@ void write_specificity_h5(Hdf5Writer& h5, const SpecificitySetup& setup,
 
 nlohmann::ordered_json specificity_json(const std::string& name, const SpecificitySetup& setup,
                                         const estimation::specificity::SpecificitySummary& summary,
-                                        const SpecificityRun& run, const std::string& results_file);
+                                        const SpecificityRun& run, const std::string& results_file,
+                                        const Provenance& provenance);
 
 // Per-case table, failed cases, and the parameters by separation.
 std::string specificity_report(const std::string& name, const SpecificitySetup& setup,

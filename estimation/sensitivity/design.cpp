@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <numeric>
 #include <sstream>
 #include <stdexcept>
@@ -124,6 +125,40 @@ std::pair<double, double> percentile_interval(std::vector<double> samples, doubl
   };
   const double alpha = 1.0 - confidence;
   return {q(alpha / 2.0), q(1.0 - alpha / 2.0)};
+}
+
+double normal_quantile(double prob) {
+  if (!(prob > 0.0 && prob < 1.0)) {
+    throw std::invalid_argument("normal_quantile: probability must be in (0, 1), got " + std::to_string(prob));
+  }
+  // Solve the upper tail Q(x) = erfc(x / sqrt 2) / 2 = q for x >= 0, q = min(prob, 1 - prob):
+  // in the tail the difference Q(x) - q keeps its relative precision. Q is convex and decreasing
+  // on [0, inf), so Newton from 0 rises monotonically to the root.
+  const double q = prob < 0.5 ? prob : 1.0 - prob;
+  const double inv_sqrt2 = 1.0 / std::sqrt(2.0), inv_sqrt2pi = 1.0 / std::sqrt(2.0 * std::numbers::pi);
+  double x = 0.0;
+  for (int it = 0; it < 500; ++it) {
+    const double tail = 0.5 * std::erfc(x * inv_sqrt2);
+    const double density = inv_sqrt2pi * std::exp(-0.5 * x * x);
+    if (!(density > 0.0)) break;
+    const double step = (tail - q) / density;
+    x += step;
+    if (std::abs(step) <= 1e-15 * std::max(1.0, x)) break;
+  }
+  return prob < 0.5 ? -x : x;
+}
+
+double finite_std(const std::vector<double>& samples) {
+  double mean = 0.0, m2 = 0.0;
+  int n = 0;
+  for (double v : samples) {  // Welford, in sample order
+    if (!std::isfinite(v)) continue;
+    ++n;
+    const double d = v - mean;
+    mean += d / n;
+    m2 += d * (v - mean);
+  }
+  return n >= 2 ? std::sqrt(m2 / (n - 1)) : std::numeric_limits<double>::quiet_NaN();
 }
 
 }  // namespace sigmaheart::estimation::sensitivity

@@ -91,6 +91,15 @@ inline int uniform_index(std::mt19937_64& rng, int n) {
   return static_cast<int>(((rng() >> 32) * static_cast<std::uint64_t>(n)) >> 32);
 }
 
+// The standard normal quantile z with Phi(z) = prob, prob in (0, 1): Newton's method on the
+// upper tail erfc(x / sqrt 2) / 2 (Abramowitz & Stegun 1964, 26.2.29) from x = 0, to the last few
+// bits. normal_quantile(0.975) = 1.959964. Throws std::invalid_argument outside (0, 1).
+double normal_quantile(double prob);
+
+// Sample standard deviation (divisor count - 1) of the finite values of `samples`; NaN with fewer
+// than two finite values.
+double finite_std(const std::vector<double>& samples);
+
 // Percentile interval [q_low, q_high] of the finite values of `samples` (linear interpolation
 // between order statistics, Hyndman-Fan type 7). NaN when no value is finite.
 std::pair<double, double> percentile_interval(std::vector<double> samples, double confidence);

@@ -3,6 +3,8 @@
 #include "estimation/sensitivity/design.h"
 #include "estimation/enum_names.h"
 
+#include <boost/random/sobol.hpp>
+
 #include <array>
 #include <bit>
 #include <stdexcept>
@@ -11,69 +13,13 @@ namespace sigmaheart::estimation::sensitivity {
 
 namespace {
 
-// Joe & Kuo (2008), direction numbers "new-joe-kuo-6.21201" (search criterion D(6), from the
-// authors' published table), dimensions 2..53: degree s of the primitive polynomial, its interior
-// coefficients a (bit s-1-l holds coefficient l), and the initial direction integers m_1..m_s.
-struct Row {
-  int s;
-  std::uint32_t a;
-  std::uint32_t m[8];
-};
-constexpr Row kJoeKuo[] = {
-    {1, 0, {1}},                                   // d = 2
-    {2, 1, {1, 3}},                                // d = 3
-    {3, 1, {1, 3, 1}},                             // d = 4
-    {3, 2, {1, 1, 1}},                             // d = 5
-    {4, 1, {1, 1, 3, 3}},                          // d = 6
-    {4, 4, {1, 3, 5, 13}},                         // d = 7
-    {5, 2, {1, 1, 5, 5, 17}},                      // d = 8
-    {5, 4, {1, 1, 5, 5, 5}},                       // d = 9
-    {5, 7, {1, 1, 7, 11, 19}},                     // d = 10
-    {5, 11, {1, 1, 5, 1, 1}},                      // d = 11
-    {5, 13, {1, 1, 1, 3, 11}},                     // d = 12
-    {5, 14, {1, 3, 5, 5, 31}},                     // d = 13
-    {6, 1, {1, 3, 3, 9, 7, 49}},                   // d = 14
-    {6, 13, {1, 1, 1, 15, 21, 21}},                // d = 15
-    {6, 16, {1, 3, 1, 13, 27, 49}},                // d = 16
-    {6, 19, {1, 1, 1, 15, 7, 5}},                  // d = 17
-    {6, 22, {1, 3, 1, 15, 13, 25}},                // d = 18
-    {6, 25, {1, 1, 5, 5, 19, 61}},                 // d = 19
-    {7, 1, {1, 3, 7, 11, 23, 15, 103}},            // d = 20
-    {7, 4, {1, 3, 7, 13, 13, 15, 69}},             // d = 21
-    {7, 7, {1, 1, 3, 13, 7, 35, 63}},              // d = 22
-    {7, 8, {1, 3, 5, 9, 1, 25, 53}},               // d = 23
-    {7, 14, {1, 3, 1, 13, 9, 35, 107}},            // d = 24
-    {7, 19, {1, 3, 1, 5, 27, 61, 31}},             // d = 25
-    {7, 21, {1, 1, 5, 11, 19, 41, 61}},            // d = 26
-    {7, 28, {1, 3, 5, 3, 3, 13, 69}},              // d = 27
-    {7, 31, {1, 1, 7, 13, 1, 19, 1}},              // d = 28
-    {7, 32, {1, 3, 7, 5, 13, 19, 59}},             // d = 29
-    {7, 37, {1, 1, 3, 9, 25, 29, 41}},             // d = 30
-    {7, 41, {1, 3, 5, 13, 23, 1, 55}},             // d = 31
-    {7, 42, {1, 3, 7, 3, 13, 59, 17}},             // d = 32
-    {7, 50, {1, 3, 1, 3, 5, 53, 69}},              // d = 33
-    {7, 55, {1, 1, 5, 5, 23, 33, 13}},             // d = 34
-    {7, 56, {1, 1, 7, 7, 1, 61, 123}},             // d = 35
-    {7, 59, {1, 1, 7, 9, 13, 61, 49}},             // d = 36
-    {7, 62, {1, 3, 3, 5, 3, 55, 33}},              // d = 37
-    {8, 14, {1, 3, 1, 15, 31, 13, 49, 245}},       // d = 38
-    {8, 21, {1, 3, 5, 15, 31, 59, 63, 97}},        // d = 39
-    {8, 22, {1, 3, 1, 11, 11, 11, 77, 249}},       // d = 40
-    {8, 38, {1, 3, 1, 11, 27, 43, 71, 9}},         // d = 41
-    {8, 47, {1, 1, 7, 15, 21, 11, 81, 45}},        // d = 42
-    {8, 49, {1, 3, 7, 3, 25, 31, 65, 79}},         // d = 43
-    {8, 50, {1, 3, 1, 1, 19, 11, 3, 205}},         // d = 44
-    {8, 52, {1, 1, 5, 9, 19, 21, 29, 157}},        // d = 45
-    {8, 56, {1, 3, 7, 11, 1, 33, 89, 185}},        // d = 46
-    {8, 67, {1, 3, 3, 3, 15, 9, 79, 71}},          // d = 47
-    {8, 70, {1, 3, 7, 11, 15, 39, 119, 27}},       // d = 48
-    {8, 84, {1, 1, 3, 1, 11, 31, 97, 225}},        // d = 49
-    {8, 97, {1, 1, 1, 3, 23, 43, 57, 177}},        // d = 50
-    {8, 103, {1, 3, 7, 7, 17, 17, 37, 71}},        // d = 51
-    {8, 115, {1, 3, 1, 5, 27, 63, 123, 213}},      // d = 52
-    {8, 122, {1, 1, 3, 5, 11, 43, 53, 133}},       // d = 53
-};
-static_assert(sizeof(kJoeKuo) / sizeof(kJoeKuo[0]) == kMaxSobolDimension - 1);
+// Joe & Kuo (2008), direction numbers "new-joe-kuo-6.21201" (search criterion D(6)), as Boost.Random
+// ships them (boost/random/detail/sobol_table.hpp, the table of boost::random::sobol, cut at the
+// 3667 polynomials below 2^16): polynomial(n) is the whole primitive polynomial of dimension n + 2
+// (bit j = coefficient of x^j, so both end bits are set) and minit(n, k) its initial direction
+// integer m_(k+1). The table is read through Boost's accessors, never copied into this tree.
+using BoostSobolTable = boost::random::default_sobol_table;
+static_assert(BoostSobolTable::max_dimension == static_cast<unsigned>(kMaxSobolDimension));
 
 // Direction numbers v_k = m_k 2^(32-k), k = 1..32, of coordinate d (1-based), by the recurrence
 // of Bratley & Fox (1988, ACM TOMS 14:88, eq. 2) as written in Joe & Kuo (2003, ACM TOMS 29:49):
@@ -84,11 +30,11 @@ std::array<std::uint32_t, 32> direction_numbers(int d) {
     for (int k = 0; k < 32; ++k) v[static_cast<size_t>(k)] = 1u << (31 - k);
     return v;
   }
-  const Row& row = kJoeKuo[d - 2];
+  const JoeKuoEntry row = joe_kuo_entry(d);
   const int s = row.s;
   for (int k = 0; k < 32; ++k) {
     if (k < s) {
-      v[static_cast<size_t>(k)] = row.m[k] << (31 - k);
+      v[static_cast<size_t>(k)] = row.m[static_cast<size_t>(k)] << (31 - k);
       continue;
     }
     std::uint32_t x = v[static_cast<size_t>(k - s)];
@@ -186,8 +132,15 @@ JoeKuoEntry joe_kuo_entry(int d) {
     throw std::out_of_range("Joe-Kuo table covers dimensions 2.." +
                             std::to_string(kMaxSobolDimension));
   }
-  const Row& row = kJoeKuo[d - 2];
-  return {row.s, row.a, std::vector<std::uint32_t>(row.m, row.m + row.s)};
+  const auto n = static_cast<std::size_t>(d - 2);
+  const unsigned poly = BoostSobolTable::polynomial(n);
+  const int s = std::bit_width(poly) - 1;  // degree
+  JoeKuoEntry e;
+  e.s = s;
+  // Joe & Kuo's a: the interior coefficients a_1..a_(s-1), a_1 (of x^(s-1)) the most significant.
+  e.a = (poly >> 1) & ((1u << (s - 1)) - 1u);
+  for (int k = 0; k < s; ++k) e.m.push_back(BoostSobolTable::minit(n, static_cast<std::size_t>(k)));
+  return e;
 }
 
 bool is_power_of_two(std::uint64_t n) { return n != 0 && (n & (n - 1)) == 0; }

@@ -1,5 +1,5 @@
 // Sobol' low-discrepancy sequence in base 2 with Joe-Kuo direction numbers (Joe & Kuo 2008,
-// SIAM J Sci Comput 30:2635, table "new-joe-kuo-6.21201"), optionally scrambled by a random
+// SIAM J Sci Comput 30:2635, table "new-joe-kuo-6.21201", read from Boost.Random's copy), optionally scrambled by a random
 // linear matrix scramble plus a random digital shift (Matousek 1998, J Complexity 14:527).
 //
 // Points are indexed: point(i) is computed directly from i (Gray-code order, Antonov & Saleev
@@ -20,9 +20,10 @@
 
 namespace sigmaheart::estimation::sensitivity {
 
-// Dimensions for which direction numbers are tabulated (dimension 1 is the van der Corput
-// sequence, dimensions 2..53 come from the Joe-Kuo table). A Saltelli design needs 2p.
-inline constexpr int kMaxSobolDimension = 53;
+// Dimensions for which direction numbers are tabulated: dimension 1 is the van der Corput
+// sequence, dimensions 2..3667 come from the Joe-Kuo table as Boost.Random ships it (the
+// polynomials below 2^16). A Saltelli design needs 2p (up to 1833 parameters).
+inline constexpr int kMaxSobolDimension = 3667;
 
 enum class Scrambling {
   kNone,                  // the plain sequence; point 0 is the origin

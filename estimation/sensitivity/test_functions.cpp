@@ -1,6 +1,7 @@
 #include "estimation/sensitivity/test_functions.h"
 
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <stdexcept>
 
@@ -47,6 +48,10 @@ ExactIndices ishigami_exact(double a, double b) {
   e.variance = a * a / 8.0 + b * pi4 / 5.0 + b * b * pi8 / 18.0 + 0.5;
   e.S1 = Eigen::Vector3d(V1, V2, 0.0) / e.variance;
   e.ST = Eigen::Vector3d(V1 + V13, V2, V13) / e.variance;
+  // The only interaction is x1 x3 (b x3^4 sin x1); S12 = S23 = 0.
+  e.S2 = Eigen::Matrix3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  e.S2(0, 1) = e.S2(1, 2) = 0.0;
+  e.S2(0, 2) = V13 / e.variance;
   return e;
 }
 
@@ -101,6 +106,12 @@ ExactIndices g_function_exact(const Eigen::VectorXd& a) {
   e.variance = prod - 1.0;
   e.S1 = Vi.matrix() / e.variance;
   e.ST = (Vi * prod / (1.0 + Vi)).matrix() / e.variance;
+  // The variance of the product's (i, j) term is V_i V_j (Sobol' 2001, s.4).
+  const auto p = static_cast<Eigen::Index>(a.size());
+  e.S2 = Eigen::MatrixXd::Constant(p, p, std::numeric_limits<double>::quiet_NaN());
+  for (Eigen::Index i = 0; i < p; ++i) {
+    for (Eigen::Index j = i + 1; j < p; ++j) e.S2(i, j) = Vi(i) * Vi(j) / e.variance;
+  }
   return e;
 }
 

@@ -20,6 +20,7 @@ struct ExactIndices {
   double variance = 0.0;
   Eigen::VectorXd S1;
   Eigen::VectorXd ST;
+  Eigen::MatrixXd S2;  // p x p, S2(i, j) for i < j; NaN on and below the diagonal
 };
 
 // Ishigami & Homma (1990): y = sin x1 + a sin^2 x2 + b x3^4 sin x1, x_i ~ U[-pi, pi].
@@ -40,7 +41,8 @@ class IshigamiModel final : public ForwardModel {
 
 // Exact indices of the Ishigami function (Ishigami & Homma 1990; Sobol' & Levitan 1999):
 // V = a^2/8 + b pi^4/5 + b^2 pi^8/18 + 1/2, V1 = (1 + b pi^4/5)^2 / 2, V2 = a^2/8,
-// V13 = 8 b^2 pi^8 / 225, V3 = 0; ST1 = (V1 + V13)/V, ST2 = V2/V, ST3 = V13/V.
+// V13 = 8 b^2 pi^8 / 225, V3 = 0; ST1 = (V1 + V13)/V, ST2 = V2/V, ST3 = V13/V; S13 = V13/V
+// (0.2437 for a = 7, b = 0.1), S12 = S23 = 0.
 ExactIndices ishigami_exact(double a = 7.0, double b = 0.1);
 // The study prior of the Ishigami inputs: uniform on [-pi, pi], nominal 0.
 Prior ishigami_prior();
@@ -62,7 +64,8 @@ class GFunctionModel final : public ForwardModel {
 };
 
 // Exact indices of the G-function (Sobol' 2001, Math Comput Simul 55:271): V_i = 1/(3 (1 + a_i)^2),
-// V = prod (1 + V_i) - 1, S1_i = V_i / V, ST_i = V_i prod_{j != i} (1 + V_j) / V; mean 1.
+// V = prod (1 + V_i) - 1, S1_i = V_i / V, ST_i = V_i prod_{j != i} (1 + V_j) / V, S2_ij = V_i V_j / V;
+// mean 1.
 ExactIndices g_function_exact(const Eigen::VectorXd& a);
 // The study prior of the G-function inputs: uniform on [0, 1], nominal 0.5.
 Prior g_function_prior(int p);

@@ -8,8 +8,11 @@
 #include "../test_support.h"
 
 #include <gtest/gtest.h>
+#include <hdf5.h>
+#include <hdf5_hl.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <regex>
@@ -59,8 +62,13 @@ TEST(SensitivityCommand, IshigamiSobolReproducesExactIndicesWithinIntervals) {
   EXPECT_EQ(f.string_attribute("/analysis", "method"), "sobol");
   EXPECT_NE(f.string_attribute("/analysis/sobol", "estimators").find("Jansen"), std::string::npos);
   const Eigen::MatrixXd s1 = f.read_matrix("/analysis/sobol/S1"), st = f.read_matrix("/analysis/sobol/ST");
-  const Eigen::MatrixXd s1l = f.read_matrix("/analysis/sobol/S1_low"), s1h = f.read_matrix("/analysis/sobol/S1_high");
-  const Eigen::MatrixXd stl = f.read_matrix("/analysis/sobol/ST_low"), sth = f.read_matrix("/analysis/sobol/ST_high");
+  const Eigen::MatrixXd s1l = f.read_matrix("/analysis/sobol/S1_percentile_low");
+  const Eigen::MatrixXd s1h = f.read_matrix("/analysis/sobol/S1_percentile_high");
+  const Eigen::MatrixXd stl = f.read_matrix("/analysis/sobol/ST_percentile_low");
+  const Eigen::MatrixXd sth = f.read_matrix("/analysis/sobol/ST_percentile_high");
+  // SALib's names: S1_conf / ST_conf, half-widths of the 95 % bootstrap interval.
+  const Eigen::MatrixXd s1c = f.read_matrix("/analysis/sobol/S1_conf"), stc = f.read_matrix("/analysis/sobol/ST_conf");
+  EXPECT_FALSE(f.exists("/analysis/sobol/S1_low"));
   ASSERT_EQ(s1.rows(), 3);
   ASSERT_EQ(s1.cols(), 1);
   for (int i = 0; i < 3; ++i) {
@@ -73,12 +81,21 @@ TEST(SensitivityCommand, IshigamiSobolReproducesExactIndicesWithinIntervals) {
     EXPECT_NEAR(s1(i, 0), S1[i], 0.05);
     EXPECT_NEAR(st(i, 0), ST[i], 0.05);
     EXPECT_LT(s1h(i, 0) - s1l(i, 0), 0.2);  // the intervals are informative
+    EXPECT_GT(s1c(i, 0), 0.0);
+    EXPECT_NEAR(s1c(i, 0), 0.5 * (s1h(i, 0) - s1l(i, 0)), 0.3 * s1c(i, 0)) << "S1_conf x" << i + 1;
+    EXPECT_NEAR(stc(i, 0), 0.5 * (sth(i, 0) - stl(i, 0)), 0.3 * stc(i, 0)) << "ST_conf x" << i + 1;
+    EXPECT_LE(std::abs(s1(i, 0) - S1[i]), s1c(i, 0) + 0.005) << "S1 x" << i + 1;
+    EXPECT_LE(std::abs(st(i, 0) - ST[i]), stc(i, 0) + 0.005) << "ST x" << i + 1;
   }
   const Eigen::VectorXd exact = f.read_vector("/analysis/exact/ST");
   EXPECT_NEAR(exact(2), 0.2437, 1e-4);
-  // Convergence tables at N, N/2, N/4.
-  EXPECT_TRUE(f.exists("/analysis/sobol/convergence/n512/ST"));
+  // Convergence tables at N, N/2, N/4, zero-padded to the width of N so they sort as text.
+  EXPECT_TRUE(f.exists("/analysis/sobol/convergence/n0512/ST_conf"));
   EXPECT_TRUE(f.exists("/analysis/sobol/convergence/n2048/S1"));
+  EXPECT_FALSE(f.exists("/analysis/sobol/convergence/n512"));
+  std::vector<std::string> members = f.members("/analysis/sobol/convergence");
+  std::sort(members.begin(), members.end());  // as h5py lists them: by name
+  EXPECT_EQ(members, (std::vector<std::string>{"n", "n0512", "n1024", "n2048"}));
   EXPECT_EQ(f.read_matrix("/analysis/design/z").rows(), 2048 * 5);
   EXPECT_EQ(f.read_strings("/analysis/design/block")[2 * 2048], "AB_1 (x1)");
 
@@ -89,8 +106,95 @@ TEST(SensitivityCommand, IshigamiSobolReproducesExactIndicesWithinIntervals) {
   EXPECT_EQ(j["runs"], 2048 * 5);
   EXPECT_EQ(j["indices"]["y"]["ranking"][0], "x1");  // ST: 0.56 > 0.44 > 0.24
   EXPECT_NEAR(j["indices"]["y"]["parameters"]["x2"]["S1"].get<double>(), 0.4424, 0.05);
+  EXPECT_NEAR(j["indices"]["y"]["parameters"]["x2"]["S1_conf"].get<double>(), s1c(1, 0), 1e-12);
+  EXPECT_NEAR(j["indices"]["y"]["parameters"]["x3"]["ST_conf"].get<double>(), stc(2, 0), 1e-12);
+  EXPECT_EQ(j["indices"]["y"]["parameters"]["x1"]["S1_percentile_interval"].size(), 2u);
+  EXPECT_FALSE(j["indices"]["y"]["parameters"]["x1"].contains("S1_low"));
+  EXPECT_EQ(j["confidence"].get<double>(), 0.95);
+  EXPECT_FALSE(j["second_order"].get<bool>());
   EXPECT_NEAR(j["exact"]["S1"][1].get<double>(), 0.4424, 1e-4);
   EXPECT_NE(r.out.find("exact indices"), std::string::npos);
+}
+
+// Second-order indices through the command (sobol: {second_order: true}): S2 / S2_conf per output
+// as p x p matrices in HDF5 and per pair in JSON; Ishigami's only interaction is x1 x3, exact
+// S13 = 0.2437 (Ishigami & Homma 1990; Sobol' & Levitan 1999), S12 = S23 = 0.
+TEST(SensitivityCommand, SecondOrderIndicesGoToHdf5AndJson) {
+  const auto dir = scratch_dir();
+  std::string yaml = kIshigami;
+  yaml.replace(yaml.find("convergence_levels: 3}"), 22, "convergence_levels: 2, second_order: true}");
+  const CliRun r = run_study(dir, "ishigami2.yaml", yaml, true);
+  ASSERT_EQ(r.code, kExitOk) << r.err << r.out;
+  io::Hdf5Reader f(dir / "r.h5");
+  EXPECT_EQ(f.read_matrix("/analysis/design/z").rows(), 2048 * 8);  // N (2p + 2)
+  EXPECT_EQ(f.read_strings("/analysis/design/block")[5 * 2048], "BA_1 (x1)");
+  const Eigen::MatrixXd S2 = f.read_matrix("/analysis/sobol/S2/y");
+  const Eigen::MatrixXd conf = f.read_matrix("/analysis/sobol/S2_conf/y");
+  ASSERT_EQ(S2.rows(), 3);
+  ASSERT_EQ(S2.cols(), 3);
+  EXPECT_TRUE(std::isnan(S2(0, 0)) && std::isnan(S2(2, 0)) && std::isnan(S2(1, 1)));
+  EXPECT_NEAR(S2(0, 2), 0.2437, 0.05);
+  EXPECT_NEAR(S2(0, 1), 0.0, 0.05);
+  EXPECT_NEAR(S2(1, 2), 0.0, 0.05);
+  EXPECT_GT(conf(0, 2), 0.0);
+  EXPECT_LT(conf(0, 2), 0.1);
+  EXPECT_TRUE(f.exists("/analysis/sobol/convergence/n1024/S2/y"));
+  EXPECT_NEAR(f.read_matrix("/analysis/exact/S2")(0, 2), 0.2437, 1e-4);
+  const Eigen::MatrixXd s1 = f.read_matrix("/analysis/sobol/S1");
+  EXPECT_NEAR(s1(0, 0), 0.3139, 0.05);  // first order from the same design
+  EXPECT_NEAR(s1(1, 0), 0.4424, 0.05);
+
+  const auto j = read_json(dir / "r.json");
+  EXPECT_TRUE(j["second_order"].get<bool>());
+  EXPECT_EQ(j["runs"], 2048 * 8);
+  EXPECT_NEAR(j["indices"]["y"]["S2"]["x1"]["x3"].get<double>(), S2(0, 2), 1e-12);
+  EXPECT_NEAR(j["indices"]["y"]["S2_conf"]["x1"]["x3"].get<double>(), conf(0, 2), 1e-12);
+  EXPECT_FALSE(j["indices"]["y"]["S2"].contains("x3"));  // pairs i < k only
+  EXPECT_NEAR(j["exact"]["S2"]["x1"]["x3"].get<double>(), 0.2437, 1e-4);
+  EXPECT_NE(r.out.find("largest interaction S2(x1, x3)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("S2(x1, x3) 0.2437 ("), std::string::npos) << r.out;  // the exact table
+}
+
+// The parameter and output name lists are HDF5 dimension scales attached to the axes of the
+// tables they index (what h5py's `dims` and xarray read as coordinates); checked with the HDF5
+// C API (H5DS, hdf5_hl).
+TEST(SensitivityCommand, NameListsAreDimensionScalesOfTheTables) {
+  const auto dir = scratch_dir();
+  std::string yaml = kIshigami;
+  yaml.replace(yaml.find("N: 2048, bootstrap: 300"), 23, "N: 64, bootstrap: 20   ");
+  const CliRun r = run_study(dir, "ishigami.yaml", yaml, false);
+  ASSERT_EQ(r.code, kExitOk) << r.err;
+  {
+    io::Hdf5Reader probe(dir / "r.h5");  // readable by our own reader with the scales attached
+    EXPECT_EQ(probe.read_strings("/analysis/parameters/names").size(), 3u);
+  }
+  const hid_t file = H5Fopen((dir / "r.h5").string().c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  ASSERT_GE(file, 0);
+  const hid_t params = H5Dopen2(file, "/analysis/parameters/names", H5P_DEFAULT);
+  const hid_t outputs = H5Dopen2(file, "/analysis/outputs/names", H5P_DEFAULT);
+  EXPECT_GT(H5DSis_scale(params), 0);
+  EXPECT_GT(H5DSis_scale(outputs), 0);
+  char label[64] = {};
+  EXPECT_GT(H5DSget_scale_name(params, label, sizeof(label)), 0);
+  EXPECT_STREQ(label, "parameter");
+  for (const char* table : {"/analysis/sobol/S1", "/analysis/sobol/ST_conf", "/analysis/sobol/convergence/n64/S1_conf"}) {
+    const hid_t d = H5Dopen2(file, table, H5P_DEFAULT);
+    ASSERT_GE(d, 0) << table;
+    EXPECT_GT(H5DSis_attached(d, params, 0), 0) << table << " rows: parameters";
+    EXPECT_GT(H5DSis_attached(d, outputs, 1), 0) << table << " columns: outputs";
+    EXPECT_EQ(H5DSis_attached(d, outputs, 0), 0) << table;
+    H5Dclose(d);
+  }
+  const hid_t theta = H5Dopen2(file, "/analysis/design/theta", H5P_DEFAULT);
+  EXPECT_GT(H5DSis_attached(theta, params, 1), 0);
+  EXPECT_EQ(H5DSget_num_scales(theta, 0), 0);  // the run axis has no names
+  H5Dclose(theta);
+  const hid_t exact = H5Dopen2(file, "/analysis/exact/S1", H5P_DEFAULT);
+  EXPECT_GT(H5DSis_attached(exact, params, 0), 0);
+  H5Dclose(exact);
+  H5Dclose(params);
+  H5Dclose(outputs);
+  H5Fclose(file);
 }
 
 const char* kStandInOat =

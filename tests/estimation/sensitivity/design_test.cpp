@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 
 namespace sh = sigmaheart::estimation::sensitivity;
 using sigmaheart::estimation::TransformKind;
@@ -112,4 +113,23 @@ TEST(Design, EnumNamesRoundTripAndAcceptAliases) {
   EXPECT_EQ(sh::parse_scrambling("off"), sh::Scrambling::kNone);
   EXPECT_STREQ(sh::to_string(sh::Scrambling::kLinearMatrixAndShift), "lms");
   EXPECT_FALSE(sh::parse_oat_mode("sideways").has_value());
+}
+
+// Reference values of the standard normal quantile (Abramowitz & Stegun 1964, Table 26.5).
+TEST(SensitivityDesign, NormalQuantileMatchesTabulatedValues) {
+  EXPECT_NEAR(sh::normal_quantile(0.975), 1.959963984540054, 1e-12);
+  EXPECT_NEAR(sh::normal_quantile(0.995), 2.575829303548901, 1e-12);
+  EXPECT_NEAR(sh::normal_quantile(0.95), 1.644853626951472, 1e-12);
+  EXPECT_NEAR(sh::normal_quantile(0.025), -1.959963984540054, 1e-12);
+  EXPECT_NEAR(sh::normal_quantile(0.5), 0.0, 1e-15);
+  EXPECT_NEAR(sh::normal_quantile(1e-10), -6.361340902404056, 1e-9);
+  EXPECT_THROW(sh::normal_quantile(0.0), std::invalid_argument);
+  EXPECT_THROW(sh::normal_quantile(1.0), std::invalid_argument);
+}
+
+TEST(SensitivityDesign, FiniteStdSkipsNonFiniteValuesAndUsesTheSampleDivisor) {
+  // {1, 2, 3, 4}: mean 2.5, sum of squares 5, sample variance 5/3.
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NEAR(sh::finite_std({1.0, nan, 2.0, 3.0, 4.0}), std::sqrt(5.0 / 3.0), 1e-15);
+  EXPECT_TRUE(std::isnan(sh::finite_std({1.0, nan})));
 }
