@@ -1,5 +1,6 @@
 // sigmaheart: personalise Bestel-Clement-Sorine heart models from clinical data.
 // Everything lives in sigmaheart_cli (app/cli.h) so the tests can run commands in-process.
+#include "app/blackbox/register.h"
 #include "app/cli.h"
 #include "estimation/mpi.h"
 
@@ -10,5 +11,7 @@ int main(int argc, char** argv) {
   // and writes files; all ranks return the same exit code). MPI is initialised only when
   // compiled in; otherwise world() is a single rank.
   sigmaheart::estimation::MpiSession mpi(&argc, &argv);
-  return sigmaheart::app::run_cli(argc, argv, std::cout, std::cerr, mpi.world());
+  // The built-in models plus the black-box ones (`model: external`, `model: umbridge`).
+  return sigmaheart::app::run_cli(argc, argv, std::cout, std::cerr, mpi.world(),
+                                  sigmaheart::app::blackbox::cli_models());
 }

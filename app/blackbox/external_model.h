@@ -1,0 +1,77 @@
+// `model: external`: a simulator that is a program (docs/architecture.md s.9). Every run() writes
+// the parameter vector to a file in a fresh member directory, runs the configured command there
+// (no shell; command_template.h), enforces the time limit and reads the program's output CSV
+// (`name [unit]` headers, app/io/observation_file.h) back into a Trajectory in SI.
+//
+//   simulator:
+//     model: external
+//     numerics:
+//       command: "./model.py --params {params} --out {output}"
+//       workdir: runs/             # member directories are created below it
+//       parameter_format: json     # or yaml
+//       output: curves.csv         # the file the program writes in {dir}
+//       timeout: 30 s
+//       period: 0.8 s              # optional: RunInfo::period
+//       keep_workdirs: false       # true: keep every member directory, not only failed ones
+//       parameters: [...]          # tables.h
+//       channels: [...]
+//
+// Failures are Statuses (never exceptions out of run()): kOutOfBounds (theta outside the
+// table's bounds), kProcessFailed (could not start, non-zero exit, killed by a signal),
+// kTimeout (killed after `timeout`), kBadOutput (no output file, unreadable or non-finite
+// values, a declared channel missing or in the wrong unit). Their messages name the member
+// directory, which is kept, and end with the last lines of the program's stderr.
+#pragma once
+
+#include "app/blackbox/command_template.h"
+#include "model/registry.h"
+
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace sigmaheart::app::blackbox {
+
+enum class ParameterFormat { kJson, kYaml };
+
+struct ExternalOptions {
+  CommandTemplate command;            // parsed template
+  std::string executable;             // the program word resolved (absolute path)
+  std::filesystem::path workdir;      // absolute; member directories go below it
+  ParameterFormat parameter_format = ParameterFormat::kJson;
+  std::string output = "curves.csv";  // file name inside the member directory
+  double timeout = 60.0;              // [s]
+  double period = 0.0;                // [s]; 0: not declared
+  bool keep_workdirs = false;
+  std::vector<model::Channel> channels;
+};
+
+class ExternalSimulator final : public model::Simulator {
+ public:
+  ExternalSimulator(std::shared_ptr<const ExternalOptions> options, model::ParameterSpace parameters);
+
+  std::string name() const override { return "external"; }
+  const model::ParameterSpace& parameters() const override { return parameters_; }
+  std::vector<model::Channel> channels() const override { return options_->channels; }
+  model::RunResult run(const Eigen::Ref<const Eigen::VectorXd>& theta) override;
+  std::unique_ptr<model::Simulator> clone() const override {
+    return std::make_unique<ExternalSimulator>(options_, parameters_);
+  }
+
+ private:
+  std::shared_ptr<const ExternalOptions> options_;
+  model::ParameterSpace parameters_;
+  int clone_id_;     // unique in this process
+  long counter_ = 0; // runs of this clone
+};
+
+// The `numerics:` of `model: external`, checked before any work: every error goes through the
+// reader (file:line:column). The program must exist and be executable now.
+model::ModelBuild configure_external(const model::OptionReader& numerics);
+
+// The parameter file of one run: names, values (SI, shortest round-trip text) and units.
+std::string parameter_file_text(const model::ParameterSpace& parameters,
+                                const Eigen::Ref<const Eigen::VectorXd>& theta, ParameterFormat format);
+
+}  // namespace sigmaheart::app::blackbox
