@@ -413,5 +413,31 @@ TEST(ExternalCli, ASensitivityStudyRecordsTheFailedMembers) {
   }
 }
 
+// experiments/black-box, shrunk so it cannot rot: its configs validate, and one run of its python3
+// model (lv_wk3.py) gives a plausible beat in SI.
+TEST(BlackBoxExperiment, ConfigsValidateAndTheModelRunsOnce) {
+  const fs::path exp = fs::path(SIGMAHEART_SOURCE_DIR) / "experiments/black-box";
+  for (const char* name : {"model-external.yaml", "calibrate-external.yaml", "sensitivity-external.yaml"}) {
+    const CliRun r = run_cli_models({"validate", (exp / name).string()});
+    EXPECT_EQ(r.code, app::kExitOk) << name << ": " << r.err;
+  }
+  const auto dir = scratch_dir();
+  // The shipped model with member directories in the scratch directory.
+  std::string text = read_file(exp / "model-external.yaml");
+  text.replace(text.find("./lv_wk3.py"), 11, (exp / "lv_wk3.py").string());
+  auto sim = make_simulator(write_file(dir / "m.yaml", text));
+  const model::RunResult r = sim->run(sim->parameters().nominal());
+  ASSERT_TRUE(r.status.ok()) << r.status.message;
+  ASSERT_EQ(r.trajectory.samples(), 81);
+  const Eigen::VectorXd v = r.trajectory.channel("V_lv");
+  const double edv = v.maxCoeff(), esv = v.minCoeff();
+  EXPECT_GT(edv, 90e-6);  // m^3
+  EXPECT_LT(edv, 140e-6);
+  const double ef = (edv - esv) / edv;
+  EXPECT_GT(ef, 0.4);
+  EXPECT_LT(ef, 0.65);
+  EXPECT_GT(r.trajectory.channel("P_lv").maxCoeff(), 100.0 * 133.322);  // Pa
+}
+
 }  // namespace
 }  // namespace sigmaheart::testing
