@@ -94,6 +94,7 @@ model::ParameterSpace read_parameter_table(const model::OptionReader& numerics,
       item->fail("name", "expected a parameter name (letters, digits, '_'), got '" + p.name + "'");
     }
     if (!seen.insert(p.name).second) item->fail("name", "parameter '" + p.name + "' is listed twice");
+    if (!item->has("unit")) item->fail("unit", "missing required key 'unit' (SI, e.g. Pa, m^3, Pa s/m^3, 1)");
     p.unit = item->text("unit", "");
     if (!known_unit(p.unit)) {
       item->fail("unit", "unknown unit '" + p.unit +
@@ -141,9 +142,10 @@ std::vector<model::Channel> read_channel_table(const model::OptionReader& numeri
     }
     if (c.name == "time" || c.name == "t") item->fail("name", "'" + c.name + "' is the time column, not a channel");
     if (!seen.insert(c.name).second) item->fail("name", "channel '" + c.name + "' is listed twice");
+    if (!item->has("unit")) item->fail("unit", "missing required key 'unit' (m^3, mL, Pa, mmHg, 1, ...)");
     const std::string unit = item->text("unit", "");
     const auto si = model::units::to_si(unit);
-    if (!si || !item->has("unit")) {
+    if (!si) {
       item->fail("unit", "unknown unit '" + unit + "': expected a unit of model/units.h (m^3, mL, Pa, "
                          "mmHg, m^3/s, 1, ...)");
     }
