@@ -16,6 +16,24 @@
 //       parameters: [...]          # tables.h
 //       channels: [...]
 //
+// With `steppable: true` the program is driven step by step instead (the ROUKF needs it):
+//
+//       steppable: true
+//       step_command: "./model.py --params {params} --in {state_in} --out {state_out} --to {t_end}"
+//       state: [{name: V, unit: m^3}, {name: P_c, unit: Pa}]   # the state vector's layout
+//       period: 0.8 s              # required: run() samples one beat at `frames` times
+//       frames: 41
+//
+// The program reads the state file {state_in}, integrates from its time to {t_end} (equal: no
+// integration) and writes {state_out}. Both are CSV with a `name [unit]` header and one row:
+// `time [s]`, then the state entries in the order of `state:`; {state_out} continues with the
+// channels at t_end in the order of `channels:`. A {state_in} with the header but no row means
+// "start from your own initial state at t = 0". initial_state() is such a call with t_end = 0,
+// advance() one call, sample() one call with t_end equal to the state's time (so a state the
+// filter edited is sampled by the program itself), run() one initial call and `frames` - 1
+// advances with a sample each. A failed sample() gives NaN channels (the ensemble turns them into
+// a failed member).
+//
 // Failures are Statuses (never exceptions out of run()): kOutOfBounds (theta outside the
 // table's bounds), kProcessFailed (could not start, non-zero exit, killed by a signal),
 // kTimeout (killed after `timeout`), kBadOutput (no output file, unreadable or non-finite
@@ -45,6 +63,12 @@ struct ExternalOptions {
   double period = 0.0;                // [s]; 0: not declared
   bool keep_workdirs = false;
   std::vector<model::Channel> channels;
+  // The steppable protocol (steppable: true).
+  bool steppable = false;
+  CommandTemplate step_command;
+  std::string step_executable;
+  std::vector<model::Channel> state;  // layout of State::x (SI units)
+  int frames = 41;                    // samples of run()
 };
 
 class ExternalSimulator final : public model::Simulator {
@@ -64,6 +88,38 @@ class ExternalSimulator final : public model::Simulator {
   model::ParameterSpace parameters_;
   int clone_id_;     // unique in this process
   long counter_ = 0; // runs of this clone
+};
+
+// The same program driven step by step (the steppable protocol above).
+class ExternalSteppableSimulator final : public model::SteppableSimulator {
+ public:
+  ExternalSteppableSimulator(std::shared_ptr<const ExternalOptions> options, model::ParameterSpace parameters);
+
+  std::string name() const override { return "external"; }
+  const model::ParameterSpace& parameters() const override { return parameters_; }
+  std::vector<model::Channel> channels() const override { return options_->channels; }
+  model::RunResult run(const Eigen::Ref<const Eigen::VectorXd>& theta) override;
+  std::unique_ptr<model::Simulator> clone() const override {
+    return std::make_unique<ExternalSteppableSimulator>(options_, parameters_);
+  }
+  std::vector<model::Channel> state_layout() const override { return options_->state; }
+  // Throws std::runtime_error when the program fails (the contract has no Status here).
+  model::State initial_state(const Eigen::Ref<const Eigen::VectorXd>& theta) override;
+  model::Status advance(model::State& state, const Eigen::Ref<const Eigen::VectorXd>& theta,
+                        double t_end) override;
+  Eigen::VectorXd sample(const model::State& state,
+                         const Eigen::Ref<const Eigen::VectorXd>& theta) const override;
+
+ private:
+  // One program call from `in` (nullptr: the initial state) to t_end; fills out_state and
+  // out_channels.
+  model::Status step(const model::State* in, const Eigen::Ref<const Eigen::VectorXd>& theta, double t_end,
+                     model::State& out_state, Eigen::VectorXd& out_channels) const;
+
+  std::shared_ptr<const ExternalOptions> options_;
+  model::ParameterSpace parameters_;
+  int clone_id_;
+  mutable long counter_ = 0;
 };
 
 // The `numerics:` of `model: external`, checked before any work: every error goes through the
