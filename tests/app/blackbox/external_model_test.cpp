@@ -13,10 +13,12 @@
 #include "estimation/forward_model.h"
 #include "observers/global_indices.h"
 #include "tests/app/test_support.h"
+#include "tests/model/simulator_contract.h"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <signal.h>
+#include <unistd.h>
 
 #include <chrono>
 #include <cmath>
@@ -438,7 +440,7 @@ fs::path write_step_config(const fs::path& dir, const std::string& step_command 
                                     "    steppable: true\n"
                                     "    step_command: \"" + step_command + "\"\n"
                                     "    parameter_format: yaml\n    workdir: runs\n    timeout: 10 s\n"
-                                    "    period: 0.8 s\n    frames: 9\n"
+                                    "    period: 0.8 s\n    frames: 21\n"
                                     "    parameters:\n"
                                     "      - {name: V_ed, unit: m^3, nominal: 1.4e-4, lower: 1e-5, upper: 5e-4}\n"
                                     "      - {name: tau, unit: s, nominal: 0.3, lower: 0.05, upper: 2}\n"
@@ -477,12 +479,12 @@ TEST(ExternalSteppable, AdvancesReplaysAndSamplesThroughTheProgram) {
   model::State back = a;
   EXPECT_EQ(steppable->advance(back, theta, 0.1).code, StatusCode::kInvalidArgument);
   EXPECT_EQ(back.x(0), a.x(0));
-  // run(): 9 frames over 0.8 s, each a step of the program.
+  // run(): 21 frames over 0.8 s, each a step of the program.
   const model::RunResult r = sim->run(theta);
   ASSERT_TRUE(r.status.ok()) << r.status.message;
-  ASSERT_EQ(r.trajectory.samples(), 9);
-  EXPECT_EQ(r.trajectory.times(8), 0.8);
-  EXPECT_NEAR(r.trajectory.values(8, 0), 1.4e-4 - 0.7e-4 * std::exp(-0.8 / 0.3), 1e-13 * 1.4e-4);
+  ASSERT_EQ(r.trajectory.samples(), 21);
+  EXPECT_EQ(r.trajectory.times(20), 0.8);
+  EXPECT_NEAR(r.trajectory.values(20, 0), 1.4e-4 - 0.7e-4 * std::exp(-0.8 / 0.3), 1e-13 * 1.4e-4);
   EXPECT_TRUE(fs::is_empty(dir / "runs"));
 }
 
@@ -493,6 +495,29 @@ TEST(ExternalSteppable, AStepCommandWithoutItsPlaceholdersIsRejected) {
   EXPECT_NE(r.err.find("s.yaml:6:19"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("must pass {t_end}"), std::string::npos) << r.err;
 }
+
+// The simulator contract (tests/model/simulator_contract.h) on both forms of the external model:
+// the sh + awk beat (one program run per run()) and the steppable relaxation model.
+fs::path contract_dir() {
+  static const fs::path dir = [] {
+    // One directory per process: ctest runs each case in its own process, in parallel.
+    const fs::path d = fs::path(SIGMAHEART_BINARY_DIR) / "tests-app-scratch" /
+                       ("BlackBoxContract-" + std::to_string(::getpid()));
+    fs::remove_all(d);
+    fs::create_directories(d);
+    write_awk_script(d);
+    write_config(d, "    parameter_format: yaml\n", "./beat.sh {params} {output}");
+    write_step_config(d);
+    return d;
+  }();
+  return dir;
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    External, SimulatorContract,
+    ::testing::Values(ContractCase{"external_program", [] { return make_simulator(contract_dir() / "m.yaml"); }},
+                      ContractCase{"external_steppable", [] { return make_simulator(contract_dir() / "s.yaml"); }}),
+    contract_case_name);
 
 // experiments/black-box, shrunk so it cannot rot: its configs validate, and one run of its python3
 // model (lv_wk3.py) gives a plausible beat in SI.
