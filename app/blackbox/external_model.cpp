@@ -4,6 +4,7 @@
 #include "app/blackbox/tables.h"
 #include "app/errors.h"
 #include "app/io/display.h"
+#include "app/io/hdf5_writer.h"
 #include "app/io/observation_file.h"
 #include "model/units.h"
 
@@ -14,6 +15,7 @@
 #include <cmath>
 #include <fstream>
 #include <map>
+#include <mutex>
 #include <sstream>
 
 namespace sigmaheart::app::blackbox {
@@ -46,7 +48,38 @@ std::string failure_message(const std::string& what, const fs::path& dir) {
   return msg;
 }
 
-// The declared channels out of the program's CSV, in SI; a Status for anything else.
+// The HDF5 library is not built thread-safe on every system: one reader at a time.
+std::mutex hdf5_mutex;
+
+// An HDF5 output: a dataset /time and one dataset /<channel> per declared channel (vectors of the
+// same length), each with an optional `units` attribute (default: s for time, the declared unit).
+model::Trajectory read_output_h5(const ExternalOptions& o, const fs::path& file) {
+  std::lock_guard<std::mutex> lock(hdf5_mutex);
+  io::Hdf5Reader h5(file);
+  model::Trajectory t;
+  auto unit_of = [&h5](const std::string& path, const std::string& fallback) {
+    return h5.has_attribute(path, "units") ? h5.string_attribute(path, "units") : fallback;
+  };
+  if (!h5.exists("/time")) throw std::runtime_error("no dataset /time");
+  t.times = h5.read_vector("/time") * model::units::convert(1.0, unit_of("/time", "s"), "s");
+  for (const auto& c : o.channels) {
+    const std::string path = "/" + c.name;
+    if (!h5.exists(path)) continue;  // reported as a missing column below
+    const Eigen::VectorXd v = h5.read_vector(path);
+    if (v.size() != t.times.size()) {
+      throw std::runtime_error("dataset " + path + " has " + std::to_string(v.size()) + " values, /time has " +
+                               std::to_string(t.times.size()));
+    }
+    const std::string unit = unit_of(path, c.unit);
+    t.channels.push_back({c.name, c.unit, "", "", 0});
+    t.values.conservativeResize(v.size(), t.values.cols() + 1);
+    t.values.col(t.values.cols() - 1) = v * (unit == c.unit ? 1.0 : model::units::convert(1.0, unit, c.unit));
+  }
+  if (t.values.cols() == 0) t.values.resize(t.times.size(), 0);
+  return t;
+}
+
+// The declared channels out of the program's CSV or HDF5 file, in SI; a Status for anything else.
 Status read_output(const ExternalOptions& o, const fs::path& file, model::Trajectory& out) {
   std::error_code ec;
   if (!fs::is_regular_file(file, ec)) {
@@ -54,11 +87,21 @@ Status read_output(const ExternalOptions& o, const fs::path& file, model::Trajec
   }
   io::ObservationCurves curves;
   try {
-    curves = io::read_observation_csv(file);
+    if (file.extension() == ".h5") {
+      curves.trajectory = read_output_h5(o, file);
+    } else {
+      curves = io::read_observation_csv(file);
+    }
   } catch (const std::exception& e) {
     return Status::Error(StatusCode::kBadOutput, std::string("unreadable output: ") + e.what());
   }
   const model::Trajectory& t = curves.trajectory;
+  for (Eigen::Index k = 1; k < t.times.size(); ++k) {
+    if (!(t.times(k) > t.times(k - 1))) {
+      return Status::Error(StatusCode::kBadOutput, "output '" + file.string() + "': times do not increase at sample " +
+                                                       std::to_string(k));
+    }
+  }
   out.times = t.times;
   out.channels = o.channels;
   out.values.resize(t.samples(), static_cast<Eigen::Index>(o.channels.size()));
@@ -516,9 +559,9 @@ model::ModelBuild configure_external(const model::OptionReader& numerics) {
       numerics.fail("output", "expected a file name (no '/') inside the member directory, got '" + o->output + "'");
     }
     const std::string ext = fs::path(o->output).extension().string();
-    if (ext != ".csv" && ext != ".CSV") {
-      numerics.fail("output", "expected a .csv file with `name [unit]` headers (app/io/observation_file.h); "
-                              "HDF5 output is not supported yet");
+    if (ext != ".csv" && ext != ".h5") {
+      numerics.fail("output", "expected a .csv file with `name [unit]` headers (app/io/observation_file.h) "
+                              "or an .h5 file with datasets /time and /<channel>");
     }
     for (const char* reserved : {"stdout.txt", "stderr.txt", "params.json", "params.yaml", "state_in.csv", "state_out.csv"}) {
       if (o->output == reserved) numerics.fail("output", std::string("'") + reserved + "' is reserved for the runner");

@@ -1,7 +1,8 @@
 // `model: external`: a simulator that is a program (docs/architecture.md s.9). Every run() writes
 // the parameter vector to a file in a fresh member directory, runs the configured command there
 // (no shell; command_template.h), enforces the time limit and reads the program's output CSV
-// (`name [unit]` headers, app/io/observation_file.h) back into a Trajectory in SI.
+// (`name [unit]` headers, app/io/observation_file.h) or HDF5 file (/time and /<channel> datasets
+// with `units` attributes) back into a Trajectory in SI.
 //
 //   simulator:
 //     model: external
@@ -9,7 +10,7 @@
 //       command: "./model.py --params {params} --out {output}"
 //       workdir: runs/             # member directories are created below it
 //       parameter_format: json     # or yaml
-//       output: curves.csv         # the file the program writes in {dir}
+//       output: curves.csv         # the file the program writes in {dir} (.csv or .h5)
 //       timeout: 30 s
 //       period: 0.8 s              # optional: RunInfo::period
 //       keep_workdirs: false       # true: keep every member directory, not only failed ones

@@ -9,6 +9,7 @@
 #include "app/cli.h"
 #include "app/config.h"
 #include "app/errors.h"
+#include "app/io/hdf5_writer.h"
 #include "estimation/ensemble.h"
 #include "estimation/forward_model.h"
 #include "estimation/prior.h"
@@ -303,6 +304,43 @@ TEST(ExternalModel, YamlParameterFilesCarryTheExactValues) {
   const auto j = nlohmann::json::parse(bb::parameter_file_text(space, th, bb::ParameterFormat::kJson));
   EXPECT_EQ(j["values"][1].get<double>(), 1.0 / 3.0);
   EXPECT_EQ(j["names"][0], "a");
+}
+
+// An .h5 output: /time and one dataset per channel with `units` attributes, converted to SI. The
+// "program" copies a file the test wrote with the project's HDF5 writer.
+TEST(ExternalModel, HdfOutputIsReadWithItsUnits) {
+  const auto dir = scratch_dir();
+  Eigen::VectorXd t(5), v(5), p(5);
+  t << 0, 200, 400, 600, 800;          // ms
+  v << 120, 100, 60, 80, 120;          // mL
+  p << 8, 90, 120, 20, 8;              // mmHg
+  {
+    app::io::Hdf5Writer h5(dir / "premade.h5");
+    h5.write_vector("/time", t, "ms");
+    h5.write_vector("/V_lv", v, "mL");
+    h5.write_vector("/P_lv", p, "mmHg");
+    h5.commit();
+  }
+  const fs::path script = write_file(dir / "copy.sh", "#!/bin/sh\ncp \"$1\" \"$2\"\n");
+  fs::permissions(script, fs::perms::owner_all, fs::perm_options::add);
+  std::string text = read_file(write_config(dir, "", "./copy.sh " + (dir / "premade.h5").string() + " {output}"));
+  text.replace(text.find("output: curves.csv"), 18, "output: curves.h5");
+  const std::string phase = "      - {name: phase, unit: \"1\"}\n";
+  text.replace(text.find(phase), phase.size(), "");
+  auto sim = make_simulator(write_file(dir / "m.yaml", text));
+  const model::RunResult r = sim->run(theta(0.0));
+  ASSERT_TRUE(r.status.ok()) << r.status.message;
+  ASSERT_EQ(r.trajectory.samples(), 5);
+  EXPECT_DOUBLE_EQ(r.trajectory.times(4), 0.8);
+  EXPECT_DOUBLE_EQ(r.trajectory.values(2, 0), 60e-6);
+  EXPECT_DOUBLE_EQ(r.trajectory.values(2, 1), 120 * 133.322);
+  // A channel the file lacks is bad output.
+  std::string lacking = text;
+  lacking.replace(lacking.find("      - {name: P_lv, unit: Pa}\n"), 0, "      - {name: P_ar, unit: Pa}\n");
+  auto sim2 = make_simulator(write_file(dir / "m.yaml", lacking));
+  const model::RunResult bad = sim2->run(theta(0.0));
+  EXPECT_EQ(bad.status.code, StatusCode::kBadOutput);
+  EXPECT_NE(bad.status.message.find("no column 'P_ar'"), std::string::npos) << bad.status.message;
 }
 
 // Clones run concurrently in the ensemble's workers; each failure is its member's Status.
