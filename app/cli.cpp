@@ -83,6 +83,7 @@ int run_cli_on_rank(int argc, const char* const* argv, std::ostream& out, std::o
   register_specificity(app, ctx);
   register_personalize(app, ctx);
   register_benchmark(app, ctx);
+  register_serve(app, ctx);
 
   try {
     app.parse(argc, argv);

@@ -1,5 +1,6 @@
 // sigmaheart: personalise Bestel-Clement-Sorine heart models from clinical data.
 // Everything lives in sigmaheart_cli (app/cli.h) so the tests can run commands in-process.
+#include "app/blackbox/register.h"
 #include "app/cli.h"
 #include "estimation/interrupt.h"
 #include "estimation/mpi.h"
@@ -13,5 +14,7 @@ int main(int argc, char** argv) {
   // SIGINT/SIGTERM only set a flag from here on (estimation/interrupt.h), also while MPI starts.
   sigmaheart::estimation::install_interrupt_handlers();
   sigmaheart::estimation::MpiSession mpi(&argc, &argv);
-  return sigmaheart::app::run_cli(argc, argv, std::cout, std::cerr, mpi.world());
+  // The built-in models plus the black-box ones (`model: external`, `model: umbridge`).
+  return sigmaheart::app::run_cli(argc, argv, std::cout, std::cerr, mpi.world(),
+                                  sigmaheart::app::blackbox::cli_models());
 }

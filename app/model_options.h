@@ -34,6 +34,16 @@ class ConfigOptionReader final : public model::OptionReader {
     return node_.require_child(key).as_choice(allowed);
   }
   std::vector<double> quantities(const std::string& key, const std::string& unit) const override;
+  std::string text(const std::string& key, const std::string& fallback) const override {
+    return node_.optional<std::string>(key, fallback);
+  }
+  bool boolean(const std::string& key, bool fallback) const override {
+    return node_.optional<bool>(key, fallback);
+  }
+  int list_size(const std::string& key) const override;
+  std::unique_ptr<model::OptionReader> item(const std::string& key, int i) const override;
+  // The directory of the config file (empty when the section came from a `--set`).
+  std::string base_directory() const override;
   std::unique_ptr<model::OptionReader> child(const std::string& key) const override {
     return std::make_unique<ConfigOptionReader>(node_[key]);
   }

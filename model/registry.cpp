@@ -34,6 +34,26 @@ std::unique_ptr<OptionReader> NoOptions::child(const std::string&) const {
   return std::make_unique<NoOptions>();
 }
 
+std::string OptionReader::text(const std::string& key, const std::string& fallback) const {
+  if (has(key)) fail(key, "this options reader holds no text values");
+  return fallback;
+}
+
+bool OptionReader::boolean(const std::string& key, bool fallback) const {
+  if (has(key)) fail(key, "this options reader holds no true/false values");
+  return fallback;
+}
+
+int OptionReader::list_size(const std::string& key) const {
+  if (has(key)) fail(key, "this options reader holds no lists");
+  return 0;
+}
+
+std::unique_ptr<OptionReader> OptionReader::item(const std::string& key, int i) const {
+  fail(key, "expected a list with an item " + std::to_string(i) + ", got nothing");
+  throw std::logic_error("OptionReader::fail returned");  // fail() never returns
+}
+
 void NoOptions::fail(const std::string& key, const std::string& message) const {
   throw std::invalid_argument(key.empty() ? message : key + ": " + message);
 }

@@ -78,6 +78,21 @@ class OptionReader {
   // The sub-section at `key` (absent: an undefined reader whose errors point at this section).
   virtual std::unique_ptr<OptionReader> child(const std::string& key) const = 0;
 
+  // Text, lists of maps and file locations (the black-box models of app/blackbox/ need them).
+  // The defaults serve readers that hold no such values: an absent key gives the fallback (or an
+  // empty list), a present one is reported through fail().
+  // A string (a command template, a path); absent: fallback.
+  virtual std::string text(const std::string& key, const std::string& fallback) const;
+  // true/false; absent: fallback.
+  virtual bool boolean(const std::string& key, bool fallback) const;
+  // The number of items of the list at `key`: 0 when absent; fail() when it is not a list.
+  virtual int list_size(const std::string& key) const;
+  // Item i (0-based, < list_size(key)) of the list at `key`, as a section of its own.
+  virtual std::unique_ptr<OptionReader> item(const std::string& key, int i) const;
+  // The directory relative paths written in this section are relative to (the config file's);
+  // empty: the working directory.
+  virtual std::string base_directory() const { return {}; }
+
   // Reports `message` at `key` (at the section itself when key is empty or absent).
   [[noreturn]] virtual void fail(const std::string& key, const std::string& message) const = 0;
 };

@@ -53,6 +53,7 @@ void register_sensitivity(CLI::App& app, CommandContext& ctx);
 void register_specificity(CLI::App& app, CommandContext& ctx);
 void register_personalize(CLI::App& app, CommandContext& ctx);
 void register_benchmark(CLI::App& app, CommandContext& ctx);  // the 3D Land et al. 2015 benchmark
+void register_serve(CLI::App& app, CommandContext& ctx);      // UM-Bridge server (app/blackbox/)
 
 // Helpers shared by the commands ---------------------------------------------------------------
 

@@ -1,0 +1,105 @@
+// `sigmaheart serve CONFIG [--port 4242] [--host 127.0.0.1]`: the config's simulator (any
+// registered model) as a UM-Bridge model (app/blackbox/umbridge.h, docs/architecture.md s.9).
+// Its input is the full parameter vector in SI, in the order `sigmaheart params CONFIG` prints;
+// its output is the curves (each channel at --frames evenly spaced times of the run). Evaluations
+// run concurrently on --threads HTTP worker threads, each on its own clone of the simulator. Runs
+// until SIGINT or SIGTERM, then stops accepting requests, lets running ones finish and exits 0.
+#include "app/blackbox/umbridge.h"
+#include "app/commands/commands.h"
+#include "app/config.h"
+#include "app/errors.h"
+
+#include <spdlog/spdlog.h>
+
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <memory>
+#include <sstream>
+#include <thread>
+
+namespace sigmaheart::app {
+
+namespace {
+
+volatile std::sig_atomic_t stop_requested = 0;
+
+extern "C" void request_stop(int) { stop_requested = 1; }
+
+struct ServeCommandOptions {
+  std::filesystem::path config;
+  std::vector<std::string> overrides;
+  std::string host = "127.0.0.1";
+  int port = 4242;
+  std::string name = "forward";
+  int frames = 50;
+  std::vector<std::string> channels;
+  int threads = 2;
+};
+
+int run_serve(const ServeCommandOptions& o, CommandContext& ctx) {
+  const Config config = load_config(o.config, o.overrides, *ctx.models, *ctx.sections);
+  if (!ctx.root()) return kExitOk;  // one server per machine: only rank 0 serves
+  blackbox::ServeOptions serve;
+  serve.name = o.name;
+  serve.frames = o.frames;
+  serve.channels = o.channels;
+  serve.threads = o.threads;
+  std::unique_ptr<blackbox::UmbridgeServer> server;
+  try {
+    server = std::make_unique<blackbox::UmbridgeServer>(config.simulator.make(), serve);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(Location{"--channels", 0, 0}, e.what());
+  }
+  int port = 0;
+  try {
+    port = server->bind(o.host, o.port);
+  } catch (const std::runtime_error& e) {
+    throw InputError(Location{"--port", 0, 0}, e.what());
+  }
+  stop_requested = 0;
+  struct sigaction action {}, old_int {}, old_term {};
+  action.sa_handler = request_stop;
+  sigemptyset(&action.sa_mask);
+  ::sigaction(SIGINT, &action, &old_int);
+  ::sigaction(SIGTERM, &action, &old_term);
+  server->start();
+  ctx.out << "serving UM-Bridge model '" << o.name << "' (" << config.simulator.model << ", "
+          << server->input_size() << " inputs: the parameters in SI, " << server->output_size()
+          << " outputs: " << (o.channels.empty() ? std::string("all channels") : std::to_string(o.channels.size()) + " channels")
+          << " x " << o.frames << " frames) at http://" << o.host << ":" << port
+          << "; stop with Ctrl-C\n"
+          << std::flush;
+  while (!stop_requested) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  server->stop();
+  ::sigaction(SIGINT, &old_int, nullptr);
+  ::sigaction(SIGTERM, &old_term, nullptr);
+  ctx.out << "stopped after " << server->evaluations() << " evaluations\n" << std::flush;
+  return kExitOk;
+}
+
+}  // namespace
+
+void register_serve(CLI::App& app, CommandContext& ctx) {
+  auto opts = std::make_shared<ServeCommandOptions>();
+  CLI::App* sub = app.add_subcommand(
+      "serve", "Serve the config's simulator as a UM-Bridge model (HTTP/JSON) until Ctrl-C");
+  sub->add_option("config", opts->config, "Config file (YAML)")->required();
+  sub->add_option("--host", opts->host, "Address to listen on")->capture_default_str();
+  sub->add_option("--port", opts->port, "TCP port (0: any free port, printed)")
+      ->check(CLI::Range(0, 65535))
+      ->capture_default_str();
+  sub->add_option("--name", opts->name, "UM-Bridge model name")->capture_default_str();
+  sub->add_option("--frames", opts->frames, "Samples per channel in the output vector")
+      ->check(CLI::Range(2, 100000))
+      ->capture_default_str();
+  sub->add_option("--channels", opts->channels, "Channels in the output (default: all), e.g. V_lv,P_lv")
+      ->delimiter(',');
+  sub->add_option("--threads", opts->threads, "Concurrent evaluations (HTTP worker threads)")
+      ->check(CLI::Range(1, 256))
+      ->capture_default_str();
+  add_set_option(*sub, opts->overrides);
+  sub->callback([opts, &ctx] { ctx.run = [opts, &ctx] { return run_serve(*opts, ctx); }; });
+}
+
+}  // namespace sigmaheart::app

@@ -1,0 +1,276 @@
+// UM-Bridge on loopback (app/blackbox/umbridge.h): our server, raw HTTP requests against it, and
+// our client (`model: umbridge`) against our server, which must give the in-process numbers bit
+// for bit (JSON carries doubles as shortest round-trip text).
+#include "app/blackbox/register.h"
+#include "app/blackbox/umbridge.h"
+#include "app/cli.h"
+#include "app/config.h"
+#include "app/errors.h"
+#include "tests/app/test_support.h"
+
+#include <gtest/gtest.h>
+#include <httplib.h>
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <filesystem>
+#include <sstream>
+#include <thread>
+
+namespace sigmaheart::testing {
+namespace {
+
+namespace fs = std::filesystem;
+namespace bb = app::blackbox;
+using nlohmann::json;
+using model::StatusCode;
+
+// The beat stand-in (4 parameters, channels V_lv, P_lv, phase) served on a free port.
+struct Served {
+  std::unique_ptr<bb::UmbridgeServer> server;
+  int port = 0;
+  std::string url() const { return "http://127.0.0.1:" + std::to_string(port); }
+};
+
+Served serve_stand_in(std::vector<std::string> channels = {"V_lv", "P_lv"}, int frames = 20) {
+  Served s;
+  bb::ServeOptions o;
+  o.channels = std::move(channels);
+  o.frames = frames;
+  o.threads = 2;
+  s.server = std::make_unique<bb::UmbridgeServer>(
+      std::make_unique<BeatStandIn>(BeatStandIn::defaults(), 81), o);
+  s.port = s.server->bind("127.0.0.1", 0);
+  s.server->start();
+  return s;
+}
+
+json post(const Served& s, const std::string& path, const std::string& body, int& status) {
+  httplib::Client c(s.url());
+  auto res = c.Post(path, body, "application/json");
+  if (!res) {
+    status = -1;
+    return {};
+  }
+  status = res->status;
+  return json::parse(res->body);
+}
+
+const model::ModelRegistry& models() {
+  static const model::ModelRegistry registry = [] {
+    model::ModelRegistry r = bb::cli_models();
+    register_stand_in(r);
+    return r;
+  }();
+  return registry;
+}
+
+fs::path client_config(const fs::path& dir, const std::string& url, int frames = 20,
+                       const std::string& extra_parameter = "") {
+  return write_file(dir / "c.yaml",
+                    "name: c\nsimulator:\n  model: umbridge\n  numerics:\n"
+                    "    url: " + url + "\n    name: forward\n    timeout: 10 s\n"
+                    "    frames: " + std::to_string(frames) + "\n    period: 0.8 s\n"
+                    "    parameters:\n"
+                    "      - {name: V_ed, unit: m^3, nominal: 1.4e-4, lower: 1e-5, upper: 5e-4}\n"
+                    "      - {name: EF, unit: \"1\", nominal: 0.6, lower: 0.05, upper: 0.9}\n"
+                    "      - {name: P_peak, unit: Pa, nominal: 16000, lower: 1000, upper: 40000}\n"
+                    "      - {name: fail, unit: \"1\", nominal: 0.0, lower: 0.0, upper: 1.0}\n" +
+                        extra_parameter +
+                        "    channels:\n"
+                        "      - {name: V_lv, unit: m^3}\n"
+                        "      - {name: P_lv, unit: mmHg}\n");
+}
+
+// ---------------------------------------------------------------------------------------------
+TEST(UmbridgeServer, AnswersInfoSizesAndModelInfo) {
+  const Served s = serve_stand_in();
+  httplib::Client c(s.url());
+  auto info = c.Get("/Info");
+  ASSERT_TRUE(info);
+  EXPECT_EQ(info->status, 200);
+  const json j = json::parse(info->body);
+  EXPECT_EQ(j["protocolVersion"].get<double>(), 1.0);
+  EXPECT_EQ(j["models"], json::array({"forward"}));
+  int status = 0;
+  const std::string ask = R"({"name": "forward", "config": {}})";
+  EXPECT_EQ(post(s, "/InputSizes", ask, status)["inputSizes"], json::array({4}));
+  EXPECT_EQ(status, 200);
+  EXPECT_EQ(post(s, "/OutputSizes", ask, status)["outputSizes"], json::array({40}));
+  const json support = post(s, "/ModelInfo", R"({"name": "forward"})", status)["support"];
+  EXPECT_TRUE(support["Evaluate"].get<bool>());
+  EXPECT_FALSE(support["Gradient"].get<bool>());
+  EXPECT_FALSE(support["ApplyJacobian"].get<bool>());
+  EXPECT_FALSE(support["ApplyHessian"].get<bool>());
+}
+
+TEST(UmbridgeServer, EvaluateReturnsTheSampledCurves) {
+  const Served s = serve_stand_in();
+  int status = 0;
+  const json r = post(s, "/Evaluate",
+                      R"({"name": "forward", "input": [[1.4e-4, 0.6, 16000, 0]], "config": {}})", status);
+  ASSERT_EQ(status, 200) << r.dump();
+  ASSERT_EQ(r["output"].size(), 1u);
+  ASSERT_EQ(r["output"][0].size(), 40u);
+  // V_lv at t = 0 is V_ed; at mid-beat (frame 10 of 20 is t = 0.8 * 10/19, so interpolated)
+  // between V_ed (1 - EF) and V_ed.
+  EXPECT_DOUBLE_EQ(r["output"][0][0].get<double>(), 1.4e-4);
+  EXPECT_DOUBLE_EQ(r["output"][0][19].get<double>(), 1.4e-4);
+  EXPECT_NEAR(r["output"][0][20].get<double>(), 1000.0, 1e-9);  // P_lv at t = 0
+  EXPECT_EQ(s.server->evaluations(), 1);
+}
+
+TEST(UmbridgeServer, ErrorsAreUmbridgeErrorReplies) {
+  const Served s = serve_stand_in();
+  int status = 0;
+  json r = post(s, "/Evaluate", R"({"name": "forward", "input": [[1.4e-4, 0.6, 16000]], "config": {}})", status);
+  EXPECT_EQ(status, 400);
+  EXPECT_EQ(r["error"]["type"], "InvalidInput");
+  EXPECT_NE(r["error"]["message"].get<std::string>().find("has 3 entries; expected 4"), std::string::npos);
+  r = post(s, "/Evaluate", R"({"name": "backward", "input": [[1, 2, 3, 4]]})", status);
+  EXPECT_EQ(status, 400);
+  EXPECT_EQ(r["error"]["type"], "ModelNotFound");
+  r = post(s, "/Evaluate", R"({"name": "forward", "input": [[1, 2)", status);
+  EXPECT_EQ(status, 400);
+  EXPECT_EQ(r["error"]["type"], "InvalidInput");
+  r = post(s, "/Gradient", R"({"name": "forward"})", status);
+  EXPECT_EQ(status, 400);
+  EXPECT_EQ(r["error"]["type"], "UnsupportedFeature");
+  // Outside the parameter bounds: the client's mistake.
+  r = post(s, "/Evaluate", R"({"name": "forward", "input": [[1.4e-4, 0.99, 16000, 0]]})", status);
+  EXPECT_EQ(status, 400);
+  EXPECT_EQ(r["error"]["type"], "InvalidInput");
+  EXPECT_NE(r["error"]["message"].get<std::string>().find("EF"), std::string::npos);
+  // A failed run: the model's status travels in the message.
+  r = post(s, "/Evaluate", R"({"name": "forward", "input": [[1.4e-4, 0.6, 16000, 1]]})", status);
+  EXPECT_EQ(status, 500);
+  EXPECT_EQ(r["error"]["type"], "ModelFailed");
+  EXPECT_EQ(r["error"]["message"], "diverged: Newton diverged at t = 0.3 s");
+}
+
+TEST(UmbridgeServer, RefusesUnknownChannels) {
+  bb::ServeOptions o;
+  o.channels = {"V_lvv"};
+  try {
+    bb::UmbridgeServer server(std::make_unique<BeatStandIn>(BeatStandIn::defaults(), 81), o);
+    FAIL() << "no error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("did you mean 'V_lv'"), std::string::npos) << e.what();
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Our client against our server: the in-process numbers, bit for bit, also from two threads.
+TEST(UmbridgeClient, RoundTripGivesTheInProcessNumbersBitForBit) {
+  const Served s = serve_stand_in();
+  const auto dir = scratch_dir();
+  const app::Config config = app::load_config(client_config(dir, s.url()), {}, models());
+  auto remote = config.simulator.make();
+  EXPECT_EQ(remote->name(), "umbridge");
+  BeatStandIn local(BeatStandIn::defaults(), 81);
+  const std::vector<Eigen::VectorXd> thetas = {
+      (Eigen::VectorXd(4) << 1.4e-4, 0.6, 16000.0, 0.0).finished(),
+      (Eigen::VectorXd(4) << 1.234567e-4, 1.0 / 3.0, 12345.678, 0.1).finished()};
+  std::vector<model::RunResult> results(thetas.size());
+  std::vector<std::thread> threads;
+  std::vector<std::unique_ptr<model::Simulator>> clones;
+  for (size_t i = 0; i < thetas.size(); ++i) clones.push_back(remote->clone());
+  for (size_t i = 0; i < thetas.size(); ++i) {
+    threads.emplace_back([&, i] { results[i] = clones[i]->run(thetas[i]); });
+  }
+  for (auto& t : threads) t.join();
+  for (size_t i = 0; i < thetas.size(); ++i) {
+    ASSERT_TRUE(results[i].status.ok()) << results[i].status.message;
+    const Eigen::VectorXd want = bb::sample_curves(local.run(thetas[i]).trajectory, {0, 1}, 20);
+    const model::Trajectory& t = results[i].trajectory;
+    ASSERT_EQ(t.samples(), 20);
+    EXPECT_EQ(t.channels[1].unit, "Pa");  // declared in mmHg, carried in SI
+    for (int k = 0; k < 20; ++k) {
+      EXPECT_EQ(t.values(k, 0), want(k)) << k;
+      EXPECT_EQ(t.values(k, 1), want(20 + k)) << k;
+    }
+    EXPECT_DOUBLE_EQ(t.times(19), 0.8);
+  }
+}
+
+TEST(UmbridgeClient, AFailedEvaluationIsAStatusNeverAnException) {
+  const Served s = serve_stand_in();
+  const auto dir = scratch_dir();
+  const app::Config config = app::load_config(client_config(dir, s.url()), {}, models());
+  auto remote = config.simulator.make();
+  const model::RunResult r = remote->run((Eigen::VectorXd(4) << 1.4e-4, 0.6, 16000.0, 0.9).finished());
+  EXPECT_EQ(r.status.code, StatusCode::kDiverged);
+  EXPECT_NE(r.status.message.find("Newton diverged at t = 0.3 s"), std::string::npos) << r.status.message;
+  // The server goes away: the next run is a process failure, not a throw.
+  const_cast<Served&>(s).server->stop();
+  const model::RunResult gone = remote->run((Eigen::VectorXd(4) << 1.4e-4, 0.6, 16000.0, 0.0).finished());
+  EXPECT_FALSE(gone.status.ok());
+  EXPECT_NE(gone.status.message.find("no reply"), std::string::npos) << gone.status.message;
+}
+
+TEST(UmbridgeClient, AnUnreachableServerOrWrongSizesAreBadInput) {
+  const auto dir = scratch_dir();
+  // A port nothing listens on: bind one, then close it.
+  int free_port = 0;
+  {
+    const Served s = serve_stand_in();
+    free_port = s.port;
+  }
+  std::ostringstream out, err;
+  const auto cfg = client_config(dir, "http://127.0.0.1:" + std::to_string(free_port));
+  EXPECT_EQ(app::run_cli({"validate", cfg.string()}, out, err, models()), app::kExitBadInput);
+  EXPECT_NE(err.str().find("c.yaml:5:10"), std::string::npos) << err.str();
+  EXPECT_NE(err.str().find("no UM-Bridge server answers"), std::string::npos) << err.str();
+
+  const Served s = serve_stand_in();
+  std::ostringstream out2, err2;
+  const auto extra = client_config(dir, s.url(), 20,
+                                   "      - {name: extra, unit: s, nominal: 1, lower: 0, upper: 2}\n");
+  EXPECT_EQ(app::run_cli({"validate", extra.string()}, out2, err2, models()), app::kExitBadInput);
+  EXPECT_NE(err2.str().find("takes 4 inputs; the parameter table has 5"), std::string::npos) << err2.str();
+  std::ostringstream out3, err3;
+  EXPECT_EQ(app::run_cli({"validate", client_config(dir, s.url(), 30).string()}, out3, err3, models()),
+            app::kExitBadInput);
+  EXPECT_NE(err3.str().find("returns 40 outputs; channels x frames = 2 x 30 = 60"), std::string::npos)
+      << err3.str();
+}
+
+// `sigmaheart serve` as a program: prints where it listens, answers, exits 0 on SIGTERM.
+TEST(UmbridgeServe, TheServeCommandAnswersAndStopsCleanlyOnSigterm) {
+  const auto dir = scratch_dir();
+  const auto cfg = write_file(dir / "sphere.yaml", "name: sphere\nsimulator:\n  model: lumped-sphere\n");
+  const fs::path log = dir / "serve.log";
+  const std::string cmd = std::string(SIGMAHEART_BINARY_DIR) + "/sigmaheart serve " + cfg.string() +
+                          " --port 0 --frames 10 --channels V_lv,P_lv > " + log.string() +
+                          " 2>&1 & echo $!";
+  FILE* p = ::popen(cmd.c_str(), "r");
+  ASSERT_NE(p, nullptr);
+  int pid = 0;
+  ASSERT_EQ(std::fscanf(p, "%d", &pid), 1);
+  ::pclose(p);
+  int port = 0;
+  for (int i = 0; i < 200 && port == 0; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    const std::string text = read_file(log);
+    const auto at = text.find("http://127.0.0.1:");
+    if (at != std::string::npos) port = std::atoi(text.c_str() + at + 17);
+  }
+  ASSERT_GT(port, 0) << read_file(log);
+  httplib::Client c("http://127.0.0.1:" + std::to_string(port));
+  auto res = c.Post("/InputSizes", R"({"name": "forward"})", "application/json");
+  ASSERT_TRUE(res);
+  EXPECT_EQ(json::parse(res->body)["inputSizes"][0].get<int>(), model::builtin_models().find("lumped-sphere")->configure_defaults().parameters().size());
+  ::kill(pid, SIGTERM);
+  int code = -1;
+  for (int i = 0; i < 100; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    if (read_file(log).find("stopped after") != std::string::npos) {
+      code = 0;
+      break;
+    }
+  }
+  EXPECT_EQ(code, 0) << read_file(log);
+}
+
+}  // namespace
+}  // namespace sigmaheart::testing
