@@ -9,6 +9,7 @@
 //   build/bench/ensemble_bench --benchmark_filter=Lumped
 //   build/bench/ensemble_bench --benchmark_filter=UnequalCost
 //   mpirun -np 2 build/bench/ensemble_bench --benchmark_filter=UnequalCostRanks
+#include "estimation/checkpoint.h"
 #include "estimation/ensemble.h"
 #include "estimation/forward_model.h"
 #include "estimation/mpi.h"
@@ -18,6 +19,7 @@
 #include <benchmark/benchmark.h>
 
 #include <chrono>
+#include <filesystem>
 #include <cmath>
 #include <memory>
 #include <thread>
@@ -214,6 +216,30 @@ BENCHMARK(BM_UtCalibrationLumpedSphereOneShot)
 // rank count). Registered only under mpirun with several ranks, with a fixed iteration count so
 // that every rank makes the same collective calls.
 estimation::parallel::Communicator* g_world = nullptr;
+
+// The cost of the checkpoint per UT iteration (docs/architecture.md s.5): `members` records of 60
+// observations (the foreign-data calibration's vector) appended, flushed and fsynced, as
+// Ensemble::map_rows does after each batch; and the lookup of the same records when resuming.
+void BM_CheckpointIteration(benchmark::State& state) {
+  const int members = static_cast<int>(state.range(0));
+  const auto path = std::filesystem::temp_directory_path() / "sigmaheart-bench.checkpoint";
+  estimation::CheckpointOptions co;
+  co.path = path;
+  co.fingerprint = 1;
+  estimation::MemberCheckpoint checkpoint(co);
+  const Eigen::VectorXd row = Eigen::VectorXd::LinSpaced(60, 1e-4, 2e4);
+  long call = 0;
+  for (auto _ : state) {
+    for (int m = 0; m < members; ++m) {
+      checkpoint.add(estimation::MemberCheckpoint::key("", 0, call, m), model::Status::Ok(), row);
+    }
+    checkpoint.flush();
+    ++call;
+  }
+  state.counters["bytes_per_iteration"] = static_cast<double>(std::filesystem::file_size(path)) / call;
+  checkpoint.remove();
+}
+BENCHMARK(BM_CheckpointIteration)->Arg(6)->Arg(25)->UseRealTime()->Unit(benchmark::kMicrosecond);
 
 void BM_EnsembleUnequalCostRanks(benchmark::State& state) {
   EnsembleOptions o = threads(1);

@@ -27,7 +27,12 @@ import tempfile
 import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "mpi"))
+import run_mpi_case  # noqa: E402
 from run_mpi_case import compare_json  # noqa: E402  (the same comparison as the MPI cases)
+
+# How the cases were spread (one per thread, or each case's ensemble threaded) follows from the
+# thread count, which differs between the serial and the rank runs here.
+run_mpi_case.IGNORED_KEYS.add("parallel")
 
 CASES = {
     "calibrate": ["calibrate", "{src}/configs/calibrate-volunteer.yaml"],
@@ -47,12 +52,17 @@ def checkpoint_size(out):
         return 0
 
 
-def run(exe, args, out, extra=(), kill_after=None, sig=signal.SIGKILL):
+MPI = []  # e.g. ["mpirun", "--oversubscribe", "--allow-run-as-root", "-np"]: set by --mpiexec
+
+
+def run(exe, args, out, extra=(), kill_after=None, sig=signal.SIGKILL, ranks=1):
     """Runs the command. With kill_after (s) sends `sig` that long after the checkpoint first grew
     (so the kill lands after at least one batch of members was recorded, however slow the machine
     is). Returns (exit code, stderr); a signal's death is 128 + its number."""
     cmd = [exe] + args + ["-o", os.path.join(out, "r.h5"), "--summary", os.path.join(out, "r.json"),
-                          "--threads", "2"] + list(extra)
+                          "--threads", "2" if ranks == 1 else "1"] + list(extra)
+    if ranks > 1:
+        cmd = MPI + [str(ranks)] + cmd
     before = checkpoint_size(out) if "--resume" in extra else 0
     p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     if kill_after is not None:
@@ -75,8 +85,13 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--sigmaheart", required=True)
     ap.add_argument("--source", required=True)
+    ap.add_argument("--mpiexec", help="also: SIGTERM a 2-rank run and resume it serially, SIGINT a "
+                    "serial run and resume it on 3 ranks")
+    ap.add_argument("--mpi-flag", action="append", default=[])
     ap.add_argument("case", choices=sorted(CASES))
     a = ap.parse_args()
+    if a.mpiexec:
+        MPI.extend([a.mpiexec] + a.mpi_flag + ["-np"])
     args = [x.format(src=a.source) for x in CASES[a.case]]
     problems = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -127,6 +142,31 @@ def main():
                              problems)
         elif code != 0:
             problems.append(f"SIGINT: exit {code}, expected 130\n{err}")
+
+        # 3b. Across rank counts: a 2-rank run stopped by SIGTERM (what Slurm sends) resumed on one
+        # rank, a serial run stopped by SIGINT resumed on 3 ranks.
+        if a.mpiexec:
+            for first, second, sig in ((2, 1, signal.SIGTERM), (1, 3, signal.SIGINT)):
+                d = os.path.join(tmp, f"ranks{first}{second}")
+                os.makedirs(d)
+                code, err = run(a.sigmaheart, args, d, kill_after=0.1 * wall, sig=sig, ranks=first)
+                print(f"  {sig.name} on {first} rank(s): exit {code}")
+                if not os.path.exists(os.path.join(d, "r.h5.checkpoint")) and \
+                        os.path.exists(os.path.join(d, "r.json")):
+                    continue  # finished before the signal reached the ranks: nothing to resume
+                if not os.path.exists(os.path.join(d, "r.h5.checkpoint")):
+                    problems.append(f"{sig.name} on {first} rank(s) (exit {code}) left no checkpoint:\n{err}")
+                    continue
+                code, err = run(a.sigmaheart, args, d, ["--resume"], ranks=second)
+                if code != 0:
+                    problems.append(f"resume on {second} rank(s): exit {code}\n{err}")
+                else:
+                    compare_json(reference, json.load(open(os.path.join(d, "r.json"))),
+                                 f"ranks-{first}-to-{second}", problems)
+                    if "taken from the checkpoint" not in err:
+                        problems.append(f"the resume on {second} rank(s) took nothing from the checkpoint")
+                if leftovers(d):
+                    problems.append(f"left after the resume on {second} rank(s): {leftovers(d)}")
 
         # 4. A killed run leaves the earlier result intact.
         before = {f: open(os.path.join(out, f), "rb").read() for f in ("r.h5", "r.json")}
