@@ -216,5 +216,23 @@ TEST(Plot, FileThatIsNotAResultExitsTwo) {
   EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 2);
 }
 
+// An output that is a data file the config names is refused before any work (exit 2), and the
+// data file is left as it was.
+TEST(Cli, AnOutputThatIsADataFileOfTheConfigIsRefused) {
+  const auto dir = scratch_dir();
+  const std::filesystem::path src = SIGMAHEART_SOURCE_DIR;
+  std::filesystem::create_directories(dir / "data");
+  std::filesystem::copy_file(src / "configs" / "data" / "volunteer02.csv", dir / "data" / "volunteer02.csv");
+  std::filesystem::copy_file(src / "configs" / "calibrate-volunteer.yaml", dir / "c.yaml");
+  const std::string data = read_file(dir / "data" / "volunteer02.csv");
+  for (const char* option : {"-o", "--summary"}) {
+    const CliRun r = cli({"calibrate", (dir / "c.yaml").string(), option, (dir / "data" / "volunteer02.csv").string()});
+    EXPECT_EQ(r.code, kExitBadInput) << option << "\n" << r.err;
+    EXPECT_NE(r.err.find("volunteer02.csv"), std::string::npos) << r.err;
+    EXPECT_EQ(read_file(dir / "data" / "volunteer02.csv"), data);
+  }
+}
+
+
 }  // namespace
 }  // namespace sigmaheart::app
