@@ -163,8 +163,10 @@ def main():
                 else:
                     compare_json(reference, json.load(open(os.path.join(d, "r.json"))),
                                  f"ranks-{first}-to-{second}", problems)
-                    if "taken from the checkpoint" not in err:
-                        problems.append(f"the resume on {second} rank(s) took nothing from the checkpoint")
+                    # Rank 0 logs what it loaded (every rank's records); what each rank then
+                    # takes depends on which cases it is handed, so the count is not asserted.
+                    if "finished member(s) recorded" not in err:
+                        problems.append(f"the resume on {second} rank(s) loaded nothing from the checkpoint")
                 if leftovers(d):
                     problems.append(f"left after the resume on {second} rank(s): {leftovers(d)}")
 
