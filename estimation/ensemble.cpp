@@ -67,7 +67,9 @@ Ensemble::Ensemble(const ForwardModel& prototype, EnsembleOptions options)
   pool.schedule = options_.schedule;
   comm_ = pool.communicator;
   if (options_.progress) {
-    pool.progress = [this](int done, int) { options_.progress(progress_done_ + done, progress_total_); };
+    pool.progress = [this](int done, int) {
+      options_.progress(progress_done_ + done - cancelled_.load(), progress_total_);
+    };
   }
   if (options_.checkpoint) instance_ = options_.checkpoint->next_instance(options_.checkpoint_scope);
   pool_ = std::make_unique<parallel::WorkerPool<ForwardModel>>(prototype, std::move(pool));
@@ -130,10 +132,12 @@ EnsembleResult Ensemble::map_rows(
   for (int start = 0; start < all || (start == 0 && all == 0); start += batch) {
     const int n = std::min(batch, all - start);
     progress_done_ = found + start;
+    cancelled_.store(0);
     if (n > 0) {
       parallel::RowResults rows = pool_->map_rows(
           n, width, [&](int b, int worker, Eigen::Ref<Eigen::VectorXd> row) -> model::Status {
             if (interrupt_signal() != 0) {
+              cancelled_.fetch_add(1);
               return model::Status::Error(model::StatusCode::kCancelled, "interrupted before it ran");
             }
             return task(todo[static_cast<size_t>(start + b)], worker, row);

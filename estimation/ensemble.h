@@ -33,6 +33,7 @@
 
 #include <Eigen/Core>
 
+#include <atomic>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -137,6 +138,7 @@ class Ensemble {
   int reused_ = 0;
   int progress_done_ = 0;                   // members done before the current pool call
   int progress_total_ = 0;                  // members of the current call
+  std::atomic<int> cancelled_{0};           // members of the current batch not run (a signal)
 };
 
 }  // namespace sigmaheart::estimation
