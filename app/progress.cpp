@@ -27,13 +27,19 @@ ProgressLine::ProgressLine(std::ostream& out, std::string label, bool enabled)
     : out_(out), label_(std::move(label)), enabled_(enabled), tty_(isatty(STDERR_FILENO) != 0) {}
 
 ProgressLine::~ProgressLine() {
-  if (open_) finish();
+  // A stage still open here ended early (an error or a signal unwound the command): the line
+  // keeps the count reached, not the total.
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!open_) return;
+  draw(done_, true);
+  open_ = false;
 }
 
 void ProgressLine::start(const std::string& stage, int total) {
   std::lock_guard<std::mutex> lock(mutex_);
   stage_ = stage;
   total_ = total;
+  done_ = 0;
   start_ = last_draw_ = std::chrono::steady_clock::now();
   open_ = true;
   draw(0, false);
@@ -42,6 +48,7 @@ void ProgressLine::start(const std::string& stage, int total) {
 void ProgressLine::update(int done) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (!open_) return;
+  done_ = done;
   draw(done, false);
 }
 

@@ -32,6 +32,7 @@ class ProgressLine {
   bool tty_ = false;
   bool open_ = false;
   int total_ = 0;
+  int done_ = 0;  // the last count drawn (what the line shows when a stage ends early)
   std::chrono::steady_clock::time_point start_;
   std::chrono::steady_clock::time_point last_draw_;
   std::mutex mutex_;
