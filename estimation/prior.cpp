@@ -242,8 +242,9 @@ Eigen::VectorXd Prior::to_eta(const Eigen::Ref<const Eigen::VectorXd>& theta) co
 
 Eigen::MatrixXd Prior::unit_to_theta(const Eigen::MatrixXd& U) const {
   Eigen::MatrixXd T(U.rows(), U.cols());
-  for (Eigen::Index r = 0; r < U.rows(); ++r) {
-    for (Eigen::Index c = 0; c < U.cols(); ++c) T(r, c) = parameters[static_cast<size_t>(c)].from_unit(U(r, c));
+  for (Eigen::Index c = 0; c < U.cols(); ++c) {  // column by column: both matrices are column-major
+    const PriorParameter& p = parameters[static_cast<size_t>(c)];
+    for (Eigen::Index r = 0; r < U.rows(); ++r) T(r, c) = p.from_unit(U(r, c));
   }
   return T;
 }

@@ -842,7 +842,7 @@ UtSummary UtCalibration::run_local(const Start& start) {
         const bool stalled = n_phi > static_cast<size_t>(kStall) &&
                              phi_history[n_phi - 1 - kStall] - phi_c < kNegligibleDecrease &&
                              std::all_of(summary.iterations.end() - kStall, summary.iterations.end(),
-                                         [&](const UtIteration& r) { return r.step < options_.tolerance; });
+                                         [&](const UtIteration& earlier) { return earlier.step < options_.tolerance; });
         if (rec.step < options_.tolerance && (gn_decrease < kNegligibleDecrease || stalled)) {
           rec.eta_mean = eta_c;
           summary.termination = UtTermination::kConverged;

@@ -75,10 +75,10 @@ TEST(PeriodicShooting, ABudgetTooSmallIsNotPeriodicAndAFailedBeatIsPassedOn) {
       << r.status.message;
 
   const BeatMap broken = [](const Eigen::VectorXd& x, bool) {
-    BeatOutcome o;
-    o.status = Status::Error(StatusCode::kDiverged, "Newton did not converge at t = 0.1 s");
-    o.end = x;
-    return o;
+    BeatOutcome failed;
+    failed.status = Status::Error(StatusCode::kDiverged, "Newton did not converge at t = 0.1 s");
+    failed.end = x;
+    return failed;
   };
   const ShootingResult f = find_periodic_state(Eigen::Vector2d(0.0, 0.0), broken, ShootingOptions{});
   EXPECT_EQ(f.status.code, StatusCode::kDiverged);

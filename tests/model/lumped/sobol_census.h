@@ -9,8 +9,9 @@
 // constraint (APD < period) are bad input and are counted apart: run() must refuse them with
 // kOutOfBounds, which is not a numerical failure.
 //
-// Regional: 5 patches (30 global parameters + 4 per patch = 50 <= kMaxSobolDimension = 53; the
-// 17-segment model has 98 and the Sobol' table stops at 53). The per-patch equations are the
+// Regional: 5 patches (30 global parameters + 4 per patch = 50 dimensions; the 17-segment model's
+// 98 would also fit since the direction numbers come from Boost.Random's 3667-dimension table, but
+// 5 patches keep the census affordable and the points unchanged). The per-patch equations are the
 // same for 5 or 17 patches.
 #include "model/lumped/regional.h"
 #include "model/lumped/sphere.h"
