@@ -61,11 +61,9 @@ ShootingResult find_periodic_state(const VectorXd& x0, const BeatMap& beat,
                                    const ShootingOptions& o) {
   ShootingResult res;
   const Eigen::Index n = x0.size();
-  VectorXd peak = VectorXd::Zero(n);  // the largest |x_i(t)| seen on any good beat
   auto run = [&](const VectorXd& start, bool record) {
     BeatOutcome b = beat(start, record);
     ++res.beats;
-    if (b.status.ok() && b.peak.size() == n && b.peak.allFinite()) peak = peak.cwiseMax(b.peak);
     return b;
   };
   auto fail = [&](Status st, const VectorXd& x) {
@@ -155,8 +153,11 @@ ShootingResult find_periodic_state(const VectorXd& x0, const BeatMap& beat,
   };
 
   while (true) {
-    // Scales: each entry by its peak over the beat; an entry that is 0 all beat keeps scale 1.
-    VectorXd s = peak;
+    // Scales: each entry by its peak over the current beat; an entry that is 0 all beat keeps
+    // scale 1. Not the largest peak ever seen: one far trial beat (a watchdog step) inflated the
+    // scale for the rest of the solve, and with it the finite-difference steps, which then
+    // straddled a valve kink (census point 677 of the sphere stalled at |G| = 3.4e-5).
+    VectorXd s = base.peak.size() == n && base.peak.allFinite() ? base.peak : VectorXd::Ones(n);
     for (Eigen::Index i = 0; i < n; ++i) {
       if (!(s(i) > 0.0)) s(i) = 1.0;
       s(i) = std::max(s(i), std::numeric_limits<double>::min() / std::numeric_limits<double>::epsilon());

@@ -53,8 +53,8 @@ struct ShootingResult {
   double correction = 0.0;  // scaled size of the last Newton correction, or of F(x) - x [-]
 };
 
-// Finds x with F(x) = x from x0. Entries are scaled by their peak over the beat (the largest seen),
-// so the tolerance is relative to each entry's size. Fails (kNotPeriodic) when max_beats is spent,
+// Finds x with F(x) = x from x0. Entries are scaled by their peak over the current beat, so the
+// tolerance (and the finite-difference step) is relative to each entry's size in that beat. Fails (kNotPeriodic) when max_beats is spent,
 // or with the status of a recorded beat that failed (a failed Krylov or line-search beat only ends
 // that Newton step: the method falls back to a plain beat).
 ShootingResult find_periodic_state(const Eigen::VectorXd& x0, const BeatMap& beat,

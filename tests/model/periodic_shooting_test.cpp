@@ -5,6 +5,7 @@
 
 #include <Eigen/Dense>
 
+#include <algorithm>
 #include <cmath>
 
 namespace sigmaheart::model {
@@ -60,6 +61,41 @@ TEST(PeriodicShooting, ConvergesOnANonlinearMapFromFarAway) {
   ASSERT_TRUE(r.status.ok()) << r.status.message;
   EXPECT_NEAR(r.start(0), 2.0, 1e-6 * 2.0);
   EXPECT_NEAR(r.start(1), -1.0, 1e-6 * 5.0);
+}
+
+TEST(PeriodicShooting, FindsAFixedPointJustPastAKinkOfTheBeatMap) {
+  // The arterial side of a ventricle that barely ejects (census point 677 of the lumped sphere:
+  // R_d (C_p + C_d) ~ 3.5e4 s). Proximal and distal pressures x = (P_ar, P_d) [Pa]; per beat the
+  // ventricle ejects only when P_ar is below its peak pressure P* (the aortic valve opens), which
+  // raises P_ar by up to g w (a stroke volume); the arteries drain slowly. F(x) = x + G(x) with
+  //   G_ar = g w tanh(max(P* - P_ar, 0) / w) - a (P_ar - P_d),   G_d = c (P_ar - P_d) - b (P_d - P_sv).
+  // Above P* the map is nearly the identity (a, b, c ~ 1e-4), just below it steep (g = 0.5), far
+  // below flat again: the fixed point sits 0.4 Pa below the kink. The first Newton step from the
+  // flat side overshoots by 6e5 Pa; when that beat's peak stayed in the entry scales, the
+  // tolerance and the finite-difference steps grew 60-fold, and the solve stopped 0.09 Pa off.
+  const double Ps = 1e4, g = 0.5, w = 50.0, a = 1e-4, b = 5e-5, c = 2e-4, Psv = 600.0;
+  const BeatMap beat = [&](const Eigen::VectorXd& x, bool) {
+    BeatOutcome o;
+    const double G_ar = g * w * std::tanh(std::max(Ps - x(0), 0.0) / w) - a * (x(0) - x(1));
+    const double G_d = c * (x(0) - x(1)) - b * (x(1) - Psv);
+    o.end = x + Eigen::Vector2d(G_ar, G_d);
+    o.peak = x.cwiseAbs().cwiseMax(o.end.cwiseAbs());
+    return o;
+  };
+  // The fixed point below the kink solves the linear system (g + a) P_ar - a P_d = g P*,
+  // c P_ar - (b + c) P_d = -b P_sv.
+  Eigen::Matrix2d A;
+  A << g + a, -a, c, -(b + c);
+  const Eigen::Vector2d fixed = A.lu().solve(Eigen::Vector2d(g * Ps, -b * Psv));
+  ASSERT_LT(fixed(0), Ps);
+  ASSERT_GT(fixed(0), Ps - 1.0);
+  ShootingOptions o;
+  o.max_beats = 400;
+  const ShootingResult r = find_periodic_state(Eigen::Vector2d(1.1e4, 9e3), beat, o);
+  ASSERT_TRUE(r.status.ok()) << r.status.message;
+  EXPECT_NEAR(r.start(0), fixed(0), 1e-6 * Ps);
+  EXPECT_NEAR(r.start(1), fixed(1), 1e-6 * Ps);
+  EXPECT_LE(r.beats, 100);
 }
 
 TEST(PeriodicShooting, ABudgetTooSmallIsNotPeriodicAndAFailedBeatIsPassedOn) {
