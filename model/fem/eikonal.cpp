@@ -148,7 +148,7 @@ EikonalResult solve_eikonal(const Mesh& mesh, const EikonalOptions& o) {
                                 " frames; expected 1 or one per tetrahedron (" + std::to_string(nt) + ")");
   for (size_t k = 0; k < o.velocities.size(); ++k) check_velocities(o.velocities[k], k);
   for (size_t k = 0; k < o.frames.size(); ++k) check_frame(o.frames[k], k);
-  if (o.sites.empty()) throw std::invalid_argument("solve_eikonal: no onset site");
+  if (o.sites.empty() && o.vertex_onsets.empty()) throw std::invalid_argument("solve_eikonal: no onset site");
   if (!(o.source_radius >= 0.0) || !std::isfinite(o.source_radius))
     throw std::invalid_argument("solve_eikonal: source radius " + std::to_string(o.source_radius) + " m is negative");
   if (!(o.tolerance >= 0.0)) throw std::invalid_argument("solve_eikonal: tolerance " + std::to_string(o.tolerance) + " s is negative");
@@ -176,6 +176,16 @@ EikonalResult solve_eikonal(const Mesh& mesh, const EikonalOptions& o) {
         const Eigen::Vector3d d = mesh.nodes.row(v).transpose() - s.position;
         if (d.norm() <= o.source_radius) t[v] = std::min(t[v], s.time + norm_m(Me, d));
       }
+  }
+
+  for (const auto& s : o.vertex_onsets) {
+    if (s.vertex < 0 || s.vertex >= nv)
+      throw std::invalid_argument("solve_eikonal: onset vertex " + std::to_string(s.vertex) + " is not a vertex (0.." +
+                                  std::to_string(nv - 1) + ")");
+    if (!std::isfinite(s.time))
+      throw std::invalid_argument("solve_eikonal: onset time " + std::to_string(s.time) + " s at vertex " +
+                                  std::to_string(s.vertex) + " is not finite");
+    t[s.vertex] = std::min(t[s.vertex], s.time);
   }
 
   // Tetrahedra around each vertex (CSR).
@@ -277,13 +287,33 @@ std::vector<double> activation_at_quadrature(const Mesh& mesh, const Eigen::Vect
 
 // --- Patterns ------------------------------------------------------------------------------------
 
+Eigen::VectorXd surface_depth(const Mesh& mesh, int tag) {
+  EikonalOptions o;
+  o.velocities = {ConductionVelocities::isotropic(1.0)};
+  for (int n : mesh.nodes_with_tag(tag))
+    if (n < mesh.n_vertices) o.vertex_onsets.push_back({n, 0.0});
+  if (o.vertex_onsets.empty())
+    throw std::invalid_argument("surface_depth: the mesh has no faces tagged " + std::to_string(tag));
+  return solve_eikonal(mesh, o).times;  // [s] at 1 m/s = [m]
+}
+
 std::vector<ConductionVelocities> layered_velocities(const Mesh& mesh, const ConductionVelocities& bulk, double fast,
-                                                     int tag) {
+                                                     double depth, int tag) {
   if (!(fast > 0.0) || !std::isfinite(fast))
     throw std::invalid_argument("layered_velocities: fast layer velocity " + std::to_string(fast) +
                                 " m/s is not positive and finite");
+  if (!(depth >= 0.0) || !std::isfinite(depth))
+    throw std::invalid_argument("layered_velocities: depth " + std::to_string(depth) + " m is negative");
   check_velocities(bulk, 0);
   std::vector<ConductionVelocities> v(static_cast<size_t>(mesh.n_tets()), bulk);
+  if (depth > 0.0) {
+    const Eigen::VectorXd d = surface_depth(mesh, tag);
+    for (int e = 0; e < mesh.n_tets(); ++e) {
+      double c = 0.0;
+      for (int a = 0; a < 4; ++a) c += 0.25 * d[mesh.tets(e, a)];
+      if (c <= depth) v[static_cast<size_t>(e)] = ConductionVelocities::isotropic(fast);
+    }
+  }
   // A tetrahedron owns a tagged face when the three corners of the face are among its own.
   std::vector<std::array<int, 3>> tagged;
   for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f)
@@ -316,6 +346,8 @@ std::string to_string(ActivationPattern p) { return p == ActivationPattern::kHea
 std::string ActivationPatternOptions::validate() const {
   for (double v : {myocardium.fibre, myocardium.sheet, myocardium.normal, fast_endocardial_speed})
     if (!(v > 0.0) || !std::isfinite(v)) return "conduction velocity " + std::to_string(v) + " m/s is not positive";
+  if (!(fast_endocardial_depth >= 0.0) || !std::isfinite(fast_endocardial_depth))
+    return "fast endocardial depth " + std::to_string(fast_endocardial_depth) + " m is negative";
   if (!std::isfinite(lbbb_septal_onset) || !std::isfinite(lbbb_insertion_onset)) return "LBBB onset times must be finite";
   if (reference_direction.norm() < 1e-12) return "reference direction is zero";
   return {};
@@ -360,7 +392,7 @@ EikonalOptions activation_pattern(const Mesh& mesh, const std::vector<Frame>& te
   EikonalOptions e;
   e.frames = tet_frames;
   if (pattern == ActivationPattern::kHealthy) {
-    e.velocities = layered_velocities(mesh, o.myocardium, o.fast_endocardial_speed, kEndocardium);
+    e.velocities = layered_velocities(mesh, o.myocardium, o.fast_endocardial_speed, o.fast_endocardial_depth, kEndocardium);
     e.sites = {{site_on(kEndocardium, 0.8, 0.0), 0.0},
                {site_on(kEndocardium, 0.5, 60.0), 0.0},
                {site_on(kEndocardium, 1.0 / 3.0, 120.0), 0.0}};

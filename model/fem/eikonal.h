@@ -47,6 +47,12 @@ struct OnsetSite {
   double time = 0.0;                                   // [s]
 };
 
+// An activation onset at a mesh vertex (index < n_vertices) and its time [s].
+struct VertexOnset {
+  int vertex = 0;
+  double time = 0.0;  // [s]
+};
+
 struct EikonalOptions {
   // One entry for the whole mesh or one per tetrahedron.
   std::vector<ConductionVelocities> velocities = {ConductionVelocities{}};
@@ -55,6 +61,9 @@ struct EikonalOptions {
   // At least one. A site inside tetrahedron e sets the exact times t0 + |x_v - x0|_M(e) on the
   // four vertices of e (the smaller value wins when sites overlap).
   std::vector<OnsetSite> sites;
+  // Onsets placed directly on vertices (no point location); sites and vertex onsets may be mixed,
+  // at least one of the two lists is non-empty.
+  std::vector<VertexOnset> vertex_onsets;
   // Vertices within this distance [m] of a site also get the exact time t0 + |x_v - x0|_M(e), M(e)
   // the metric of the tetrahedron containing the site. A first-order scheme started from a point
   // loses a factor log(1/h) to the singularity of the solution at the source; exact values on a
@@ -77,7 +86,7 @@ struct EikonalResult {
 // Solves the eikonal equation on the vertices of `mesh` (straight-sided tetrahedra; the mid-edge
 // nodes of quadratic meshes are ignored). Throws std::invalid_argument, naming the offending value,
 // when a velocity is not positive and finite, a frame is not orthonormal, a size does not match,
-// there is no site, a site time is not finite, a site lies outside the mesh, or source_radius < 0. Vertices that no
+// there is no onset, an onset time is not finite, a vertex onset is out of range, a site lies outside the mesh, or source_radius < 0. Vertices that no
 // path reaches (a disconnected mesh) keep +infinity. Thread-safe (no shared state).
 EikonalResult solve_eikonal(const Mesh& mesh, const EikonalOptions& options);
 
@@ -101,10 +110,17 @@ std::vector<double> activation_at_quadrature(const Mesh& mesh, const Eigen::Vect
 
 // --- Velocity fields and activation patterns of the LV ---------------------------------------
 
-// Per-tetrahedron velocities: `bulk` everywhere, isotropic `fast_speed` [m/s] on tetrahedra with a
-// face on `tag` (by default the endocardium): a thin fast layer standing for the Purkinje network.
+// Distance of every vertex from the vertices of the faces tagged `tag` [m], through the mesh (an
+// isotropic eikonal solve at 1 m/s; an upper bound of the Euclidean distance within the wall).
+// Throws std::invalid_argument when no face carries the tag.
+Eigen::VectorXd surface_depth(const Mesh& mesh, int tag);
+
+// Per-tetrahedron velocities: `bulk` everywhere, isotropic `fast_speed` [m/s] on the tetrahedra
+// whose centroid lies within `depth` [m] of the surface `tag` (mean of the vertex depths), and on
+// every tetrahedron with a face on it: a fast subendocardial layer standing for the Purkinje
+// network, of a thickness that does not depend on the mesh once the mesh resolves it.
 std::vector<ConductionVelocities> layered_velocities(const Mesh& mesh, const ConductionVelocities& bulk,
-                                                     double fast_speed, int tag = kEndocardium);
+                                                     double fast_speed, double depth, int tag = kEndocardium);
 
 enum class ActivationPattern {
   kHealthy,  // LV endocardial onset at Durrer's three sites, fast endocardial layer
@@ -117,6 +133,7 @@ std::string to_string(ActivationPattern pattern);
 struct ActivationPatternOptions {
   ConductionVelocities myocardium{};  // [m/s] (Caldwell et al. 2009)
   double fast_endocardial_speed = 2.0;  // [m/s], healthy only (Purkinje-like layer; docs/models.md)
+  double fast_endocardial_depth = 1.5e-3;  // [m], thickness of that layer
   // LBBB: times at which the right-sided onset reaches the septum (RV septal surface) and, later,
   // the anterior and inferior RV insertions (RV free wall activation) [s].
   double lbbb_septal_onset = 0.0;        // [s]
