@@ -97,7 +97,7 @@ int main(int argc, char** argv) {
       for (int e = 0; e < mesh.n_tets(); ++e) {
         fibre.segment(3 * e, 3) = frames[static_cast<size_t>(e)].col(0);
         const auto& v = options.velocities.size() == 1 ? options.velocities[0] : options.velocities[static_cast<size_t>(e)];
-        fast[e] = v.fibre == v.normal && v.fibre > options.velocities.front().normal ? 1.0 : 0.0;
+        fast[e] = pattern == ActivationPattern::kHealthy && v.fibre == ActivationPatternOptions{}.fast_endocardial_speed ? 1.0 : 0.0;
       }
       VtuDocument doc(mesh);
       doc.add_vertex_data("activation_time", r.times);

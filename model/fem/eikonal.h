@@ -33,7 +33,8 @@
 namespace sigmaheart::model::fem {
 
 // Conduction velocities along the fibre, sheet and sheet-normal directions [m/s]. Defaults: pig
-// LV, orthotropic, 0.67 / 0.30 / 0.17 m/s (Caldwell et al. 2009, Circ Arrhythm Electrophysiol 2:433).
+// LV, orthotropic, 0.67 / 0.30 / 0.17 m/s (Caldwell et al. 2009, Circ Arrhythm Electrophysiol 2:433;
+// the fibre value checked against the abstract, the sheet and normal values to verify).
 struct ConductionVelocities {
   double fibre = 0.67;   // [m/s]
   double sheet = 0.30;   // [m/s]
@@ -65,10 +66,10 @@ struct EikonalOptions {
   // at least one of the two lists is non-empty.
   std::vector<VertexOnset> vertex_onsets;
   // Vertices within this distance [m] of a site also get the exact time t0 + |x_v - x0|_M(e), M(e)
-  // the metric of the tetrahedron containing the site. A first-order scheme started from a point
-  // loses a factor log(1/h) to the singularity of the solution at the source; exact values on a
-  // ball of fixed radius remove it (Zhao 2005, Math Comp 74:603, s.4), exact when the metric is
-  // constant on the ball. 0: only the four vertices of the containing tetrahedron.
+  // the metric of the tetrahedron containing the site (exact when the metric is constant on the
+  // ball). A first-order scheme started from a point source has an O(h log(1/h)) error (Zhao 2005,
+  // Math Comp 74:603); exact values on a ball of fixed radius restore first order (measured in
+  // tests/model/fem/eikonal_test.cpp). 0: only the four vertices of the containing tetrahedron.
   double source_radius = 0.0;
   // A vertex is updated only when its time drops by more than this [s].
   double tolerance = 1e-12;
