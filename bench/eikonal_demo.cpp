@@ -107,17 +107,18 @@ int main(int argc, char** argv) {
       write_atomically(dir / (name + ".vtu"), [&](std::ostream& os) { doc.write(os); });
 
       std::vector<PvdEntry> steps;
+      VtuDocument wave(mesh);  // refilled for every step
       const int n_steps = static_cast<int>(std::ceil(r.latest / 0.010)) + 1;
       for (int k = 0; k < n_steps; ++k) {
         const double t = 0.010 * k;
         Eigen::VectorXd dep(mesh.n_vertices);
         for (int v = 0; v < mesh.n_vertices; ++v) dep[v] = r.times[v] <= t ? 1.0 : 0.0;
-        VtuDocument frame(mesh);
-        frame.add_vertex_data("activation_time", r.times);
-        frame.add_vertex_data("depolarised", dep);
+        wave.clear_data();
+        wave.add_vertex_data("activation_time", r.times);
+        wave.add_vertex_data("depolarised", dep);
         char file[64];
         std::snprintf(file, sizeof file, "%s_wave_%03d.vtu", name.c_str(), k);
-        write_atomically(dir / file, [&](std::ostream& os) { frame.write(os); });
+        write_atomically(dir / file, [&](std::ostream& os) { wave.write(os); });
         steps.push_back({t, file});
       }
       write_atomically(dir / (name + "_wave.pvd"), [&](std::ostream& os) { write_pvd(os, steps); });

@@ -136,7 +136,8 @@ struct ActivationPatternOptions {
   double fast_endocardial_speed = 2.0;  // [m/s], healthy only (Purkinje-like layer; docs/models.md)
   double fast_endocardial_depth = 1.5e-3;  // [m], thickness of that layer
   // LBBB: times at which the right-sided onset reaches the septum (RV septal surface) and, later,
-  // the anterior and inferior RV insertions (RV free wall activation) [s].
+  // the anterior and inferior RV insertions (RV free wall activation) [s]. The 20 ms delay is an
+  // assumption of this model (no right ventricle in the mesh), not a measured value.
   double lbbb_septal_onset = 0.0;        // [s]
   double lbbb_insertion_onset = 0.020;   // [s]
   Eigen::Vector3d reference_direction = Eigen::Vector3d::UnitX();  // anterior RV insertion (cavity.h)

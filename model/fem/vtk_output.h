@@ -1,6 +1,6 @@
 // ParaView output: binary VTU documents (VTK XML UnstructuredGrid) and PVD time-series indexes.
 //
-// Encoding (VTK file formats, "XML File Formats", VTK User's Guide 11th ed., s.19.3): one Piece;
+// Encoding (Kitware, "VTK File Formats", section "XML File Formats"): one Piece;
 // every DataArray is format="appended" into a single <AppendedData encoding="raw"> block that
 // starts with '_'; each array there is a UInt64 byte count (header_type="UInt64") followed by the
 // raw values in the machine byte order (declared in byte_order). An array's `offset` attribute is
@@ -47,6 +47,13 @@ class VtuDocument {
   // Cell data: n_tets * components values, or one Int32 label per tetrahedron.
   void add_cell_data(const std::string& name, const Eigen::Ref<const Eigen::VectorXd>& values, int components = 1);
   void add_cell_labels(const std::string& name, const std::vector<int>& labels);
+
+  // Removes the point and cell data (geometry and cells stay): one document can be refilled for
+  // every step of a time series.
+  void clear_data() {
+    point_.clear();
+    cell_.clear();
+  }
 
   // Writes the document (XML header then the appended binary block). Throws std::runtime_error
   // when the stream fails.

@@ -137,6 +137,14 @@ TEST(VtkOutput, LinearCellsAndDeformedPoints) {
   for (auto t : types) EXPECT_EQ(t, 10);  // VTK_TETRA
   const auto pts = values<double>(a.at("Points"));
   for (int n = 0; n < m.n_nodes(); ++n) EXPECT_EQ(pts[static_cast<size_t>(3 * n + 2)], 2.0 * m.nodes(n, 2));
+  // Refilled for the next step of a series: the old fields are gone, the new one is there.
+  doc.add_cell_data("a", Eigen::VectorXd::Ones(6));
+  doc.clear_data();
+  doc.add_vertex_data("b", Eigen::VectorXd::Constant(m.n_vertices, 2.5));
+  const auto c = parse_vtu(doc.str());
+  EXPECT_EQ(c.size(), 5u);
+  EXPECT_EQ(c.count("a"), 0u);
+  EXPECT_EQ(values<double>(c.at("b")), std::vector<double>(static_cast<size_t>(m.n_nodes()), 2.5));
 }
 
 TEST(VtkOutput, RejectsWrongSizesAndNames) {
