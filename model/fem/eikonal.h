@@ -6,7 +6,7 @@
 //
 // Discretisation (Bornemann & Rasch 2006, "Finite-element discretization of static Hamilton-Jacobi
 // equations based on a local variational principle", Comput Visual Sci 9:57; the same local
-// problem as Fu, Jeong, Pan, Kirby & Whitaker 2011, SIAM J Sci Comput 33:2468, s.3): the time of a
+// problem as Fu, Jeong, Pan, Kirby & Whitaker 2011, SIAM J Sci Comput 33:2468): the time of a
 // vertex v from a tetrahedron with the other vertices a, b, c is
 //   t_v = min over x in the face (a, b, c) of  t_h(x) + |v - x|_M,
 // t_h linear on the face. The minimum of this convex function is found exactly: the interior
@@ -59,8 +59,8 @@ struct EikonalOptions {
   std::vector<ConductionVelocities> velocities = {ConductionVelocities{}};
   // Local frames (columns f, s, n; material.h), one for the whole mesh or one per tetrahedron.
   std::vector<Frame> frames = {Frame::Identity()};
-  // At least one. A site inside tetrahedron e sets the exact times t0 + |x_v - x0|_M(e) on the
-  // four vertices of e (the smaller value wins when sites overlap).
+  // A site inside tetrahedron e sets the exact times t0 + |x_v - x0|_M(e) on the four vertices of
+  // e (the smaller value wins when onsets overlap).
   std::vector<OnsetSite> sites;
   // Onsets placed directly on vertices (no point location); sites and vertex onsets may be mixed,
   // at least one of the two lists is non-empty.
