@@ -93,6 +93,8 @@ ShootingResult find_periodic_state(const VectorXd& x0, const BeatMap& beat,
   int watching = 0;  // steps left in the watch window; 0: not watching
   bool free_step = true;
   bool search_ray = false;  // after a failed watch: find the root along the Newton ray
+  constexpr int kKinkJumps = 4;  // jumps over a kink per solve (each costs one beat and a watch)
+  int kink_jumps = 0;
 
   // The root of phi(lambda) = G(x + lambda S dz) . G(x) / |G(x)|^2 on the Newton ray, bracketed by
   // phi(0) = 1 and an overshooting full step (phi(1) < 0), by the Illinois variant of regula falsi
@@ -146,7 +148,31 @@ ShootingResult find_periodic_state(const VectorXd& x0, const BeatMap& beat,
         side = 1;
       }
     }
-    if (!(best_lam > 0.0 && best_norm <= (1.0 - 1e-4 * best_lam) * r_norm)) return 0.0;
+    const bool improves = best_lam > 0.0 && best_norm <= (1.0 - 1e-4 * best_lam) * r_norm;
+    // A bracket that closed where |G| stays large (above half its value at x) is a kink, not a
+    // root: G is flat on the near side (the Jacobian there sees no valve opening) and steep on the
+    // far side. Newton from the steep side lands on the root; from the flat side it only comes
+    // back to the kink (regional census points 401, 889, 2256, 2958 crept at |G| ~ 2e-5 until the
+    // beats ran out). So the iterate jumps to the far side, ten finite-difference steps past the
+    // bracket, and the watchdog keeps the best point of the ray to come back to.
+    if (overshoot && best_norm > 0.5 * r_norm && watching == 0 && kink_jumps < kKinkJumps &&
+        res.beats < o.max_beats) {
+      ++kink_jumps;
+      const double lam_far = std::min(1.0, hi + 10.0 * o.fd_step / max_abs(dz));
+      const VectorXd x_far = x_io + lam_far * dz.cwiseProduct(s);
+      BeatOutcome far = run(x_far, true);
+      if (far.status.ok() && (far.end - x_far).cwiseQuotient(s).allFinite()) {
+        x_ref = improves ? VectorXd(x_io + best_lam * dz.cwiseProduct(s)) : x_io;
+        ref_norm = improves ? best_norm : r_norm;
+        last_norm = std::numeric_limits<double>::infinity();
+        watching = kWatch;
+        free_step = false;
+        x_io = x_far;
+        base_io = std::move(far);
+        return lam_far;
+      }
+    }
+    if (!improves) return 0.0;
     x_io += best_lam * dz.cwiseProduct(s);
     base_io = best_lam == last_lam ? std::move(best) : run(x_io, true);
     return base_io.status.ok() ? best_lam : 0.0;

@@ -20,6 +20,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -27,6 +28,7 @@
 #include <iostream>
 #include <map>
 #include <string>
+#include <vector>
 
 namespace sigmaheart::model::lumped {
 
@@ -44,7 +46,9 @@ struct Census {
 // runs the first m points instead, for measuring; the test's assertion is unchanged).
 // SIGMAHEART_CENSUS_DUMP=file writes, for each periodic point, its beats, step cuts and every
 // channel at 20 evenly spaced samples of the returned beat (%.17g), to compare two builds.
-inline Census census(Simulator& sim, int n) {
+// `only_points`: when not empty, only these indices of the n-point sample run (regression tests of
+// points that once failed).
+inline Census census(Simulator& sim, int n, const std::vector<int>& only_points = {}) {
   if (const char* points = std::getenv("SIGMAHEART_CENSUS_POINTS")) n = std::atoi(points);
   const ParameterSpace& space = sim.parameters();
   SobolSequenceOptions so;
@@ -69,6 +73,10 @@ inline Census census(Simulator& sim, int n) {
   }
   for (int i = only ? std::atoi(only) : 0; i < (only ? std::atoi(only) + 1 : n); ++i) {
     if (!only && i % shards != shard) continue;
+    if (!only_points.empty() &&
+        std::find(only_points.begin(), only_points.end(), i) == only_points.end()) {
+      continue;
+    }
     Eigen::VectorXd theta(space.size());
     for (int k = 0; k < space.size(); ++k) {
       theta(k) = space[k].lower + u(i, k) * (space[k].upper - space[k].lower);
