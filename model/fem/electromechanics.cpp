@@ -276,6 +276,7 @@ struct LeftVentricle3D::Impl {
   BcsPassiveParameters mech_passive{-1, -1, -1, -1};
   BaseCondition base = BaseCondition::kSliding;
   LeftVentricle3DOptions options;
+  std::unique_ptr<SparseDirectSolver> lu;  // SparseLU with the pattern analysed once (step())
 
   Mechanics& mechanics(const BcsPassiveParameters& p) {
     if (!mech || p.c1 != mech_passive.c1 || p.c2 != mech_passive.c2 || p.c_exp != mech_passive.c_exp ||
@@ -462,9 +463,21 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
   // Newton's method with the factors of the tangent kept while they still contract the residual
   // fast (a chord iteration, Kelley 2003, Solving Nonlinear Equations with Newton's Method, s.2.3):
   // the LU factorisation costs ~20 assemblies on the quadratic meshes, so the tangent is
-  // refactorised only when an update reduced the merit by less than 4 or failed. A fresh solver
-  // per step keeps the step a pure function of its inputs (replay lands on the same bits).
-  SparseDirectSolver solver(options.linear_solver);
+  // refactorised only when an update reduced the merit (squared scaled residual) by less than 100
+  // or failed. The factorisation is redone at every step's first iteration, so a step is a pure function of
+  // its inputs (replay lands on the same bits).
+  // Eigen's SparseLU analyses the pattern only (the same for every step), so one analysis serves
+  // the object's life and every factorisation is a function of the tangent alone. UMFPACK's
+  // symbolic step also reads values, so it gets a fresh solver per step; its BLAS kernels round
+  // differently with the alignment of its workspace, so its runs in different threads differ by
+  // about 1e-6 relative: SparseLU is the default for bitwise reproducible runs.
+  std::unique_ptr<SparseDirectSolver> fresh;
+  if (options.linear_solver == LinearSolver::kSparseLU) {
+    if (!lu) lu = std::make_unique<SparseDirectSolver>(LinearSolver::kSparseLU);
+  } else {
+    fresh = std::make_unique<SparseDirectSolver>(options.linear_solver);
+  }
+  SparseDirectSolver& solver = fresh ? *fresh : *lu;
   bool factors_fresh = false;  // the factors belong to the current point
   bool have_factors = false;
   const double tol = options.newton_tolerance;

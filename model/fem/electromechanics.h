@@ -89,7 +89,9 @@ struct LeftVentricle3DOptions {
 
   ActivationSource activation = ActivationSource::kSynchronous;
   double conduction_velocity = 0.6;  // [m/s] for kApexDistance
-  LinearSolver linear_solver = LinearSolver::kAuto;
+  // SparseLU by default: the same bits in every thread (electromechanics.cpp, step); UMFPACK
+  // (kAuto, kUmfPack) rounds with the alignment of its workspace.
+  LinearSolver linear_solver = LinearSolver::kSparseLU;
 
   // Empty when valid, else a message starting with the offending field's name.
   std::string validate() const;

@@ -19,7 +19,7 @@ void register_fem_models(ModelRegistry& registry);
 //   dt: 5 ms,  max_step_cuts: 6,  inflation_steps: 4,  min_beats: 1,  max_beats: 20,
 //   periodic_tolerance: 1e-3,  output_every: 1,  newton_tolerance: 1e-8,  newton_max_iterations: 20
 //   activation: synchronous | apex_distance,  conduction_velocity: 0.6 m/s
-//   linear_solver: auto | umfpack | sparselu
+//   linear_solver: sparselu (default: the same bits in every thread) | auto | umfpack
 // Errors go through the reader (file:line:column in app/).
 LeftVentricle3DOptions read_lv3d_options(const OptionReader& numerics);
 
