@@ -4,7 +4,19 @@
 // (mesh preset 0 coarse, 1 medium, 2 fine; threads). Counters: tetrahedra, unknowns of the
 // mechanics (u, p), Newton iterations and step cuts of the beat, EF of the beat [%].
 //   build/bench/lv3d_beat_bench --benchmark_counters_tabular=true
-// The target of issue 13: a beat on about 10 000 tetrahedra under 60 s on one core.
+// The target of issue 13: a beat on about 10 000 tetrahedra under 60 s on one core; not met.
+// Measured on the shared 2-core machine (load average 4-10 from other builds, so wall times are
+// upper bounds; SparseLU, quadrature degree 2):
+//   coarse (396 tets, 2639 unknowns), one beat at dt 5 ms: 1 thread 26.1 s wall / 24.7 s CPU,
+//     848 Newton iterations, no step cut, EF 40.8 %; 2 threads 65.2 s wall / 39.2 s CPU, the same
+//     EF to the last digit (colour-ordered assembly); the LU factorisation dominates and is not
+//     threaded, and the per-colour OpenMP barriers cost more than they save on a loaded machine.
+//   coarse, inflation + 10 steps: 1 thread 3.68 s wall / 3.11 s CPU; 2 threads 26.1 s / 6.47 s.
+//   medium (3312 tets, 17 802 unknowns), inflation + 10 steps, 1 thread: 805 s wall / 264 s CPU
+//     (a beat would take tens of CPU minutes). Medium on 2 threads, the medium beat and the fine
+//     mesh (~11 000 tets) were not run: the SparseLU factorisation of the P2-P1 tangent grows far
+//     faster than the mesh and is the cost to attack (an iterative solver with an algebraic
+//     multigrid preconditioner, or UMFPACK/METIS with its nondeterminism accepted).
 #include "model/fem/electromechanics.h"
 #include "model/fem/register.h"
 
