@@ -99,8 +99,9 @@ std::string LeftVentricle3DOptions::validate() const {
   std::ostringstream s;
   if (n_transmural < 1 || n_transmural > 8) return "n_transmural must be in 1..8";
   if (n_longitudinal < 6 || n_longitudinal > 60) return "n_longitudinal must be in 6..60";
-  if (n_circumferential < 6 || n_circumferential > 120 || n_circumferential % 6 != 0)
-    return "n_circumferential must be a multiple of 6 in 6..120 (AHA 60-degree sectors)";
+  // Below 12 elements around (and 6 along) the curved quadratic tetrahedra near the apex invert.
+  if (n_circumferential < 12 || n_circumferential > 120 || n_circumferential % 6 != 0)
+    return "n_circumferential must be a multiple of 6 in 12..120 (AHA 60-degree sectors)";
   if (quadrature_degree != 2 && quadrature_degree != 5) return "quadrature_degree must be 2 or 5";
   if (!(std::abs(fibre_endo_deg) <= 90) || !(std::abs(fibre_epi_deg) <= 90))
     return "fibre angles must lie in [-90, 90] deg";
@@ -624,6 +625,8 @@ LeftVentricle3D::LeftVentricle3D(LeftVentricle3DOptions options, ParameterSpace 
   impl_->base = options_.base;
   impl_->geo = build_geometry(options_);
   impl_->index = make_index(parameters_);
+  // Builds the mechanics once: a mesh with an inverted element is refused here, not in run().
+  impl_->mechanics(unpack(parameters_.nominal(), impl_->index).passive);
 }
 
 LeftVentricle3D::LeftVentricle3D(LeftVentricle3DOptions options)
@@ -774,6 +777,15 @@ Status LeftVentricle3D::step_to(model::State& state, const Eigen::Ref<const Eige
 }
 
 Status LeftVentricle3D::advance(model::State& state, const Eigen::Ref<const Eigen::VectorXd>& theta, double t_end) {
+  try {
+    return advance_checked(state, theta, t_end);
+  } catch (const std::exception& e) {  // never thrown for a valid set-up; a Status, not a crash
+    return Status::Error(StatusCode::kInvalidArgument, std::string("lv-3d: ") + e.what());
+  }
+}
+
+Status LeftVentricle3D::advance_checked(model::State& state, const Eigen::Ref<const Eigen::VectorXd>& theta,
+                                        double t_end) {
   if (Status s = check_theta(theta); !s.ok()) return s;
   if (state.x.size() != impl_->state_size()) {
     std::ostringstream s;
@@ -818,6 +830,17 @@ std::unique_ptr<SteppableSimulator> LeftVentricle3D::with_time_step_factor(doubl
 }
 
 RunResult LeftVentricle3D::run(const Eigen::Ref<const Eigen::VectorXd>& theta) {
+  try {
+    return run_checked(theta);
+  } catch (const std::exception& e) {  // never thrown for a valid set-up; a Status, not a crash
+    RunResult r;
+    r.trajectory.channels = channels();
+    r.status = Status::Error(StatusCode::kInvalidArgument, std::string("lv-3d: ") + e.what());
+    return r;
+  }
+}
+
+RunResult LeftVentricle3D::run_checked(const Eigen::Ref<const Eigen::VectorXd>& theta) {
   RunResult result;
   result.trajectory.channels = channels();
   if (Status s = check_theta(theta); !s.ok()) {

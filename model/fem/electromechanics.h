@@ -71,7 +71,7 @@ struct LeftVentricle3DOptions {
   // quadratic tetrahedra (P2-P1 Taylor-Hood).
   int n_transmural = 1;
   int n_longitudinal = 6;      // a multiple of 3 puts node rings on the AHA levels
-  int n_circumferential = 12;  // a multiple of 6 puts nodes on the 60-degree AHA bounds
+  int n_circumferential = 12;  // a multiple of 6 (nodes on the 60-degree AHA bounds), >= 12
   int quadrature_degree = 2;   // 2 (4 points) or 5 (14 points)
   double fibre_endo_deg = 60.0;   // helix angle at the endocardium [deg]
   double fibre_epi_deg = -60.0;   // at the epicardium [deg]
@@ -106,6 +106,7 @@ struct LeftVentricle3DOptions {
 // inflates it to the atrial pressure of t = 0 and repeats beats until the beat-start state repeats.
 class LeftVentricle3D final : public SteppableSimulator {
  public:
+  // Throws std::invalid_argument for invalid options or parameter names (message says which).
   LeftVentricle3D(LeftVentricle3DOptions options, ParameterSpace parameters);
   explicit LeftVentricle3D(LeftVentricle3DOptions options = {});
   ~LeftVentricle3D() override;
@@ -143,6 +144,8 @@ class LeftVentricle3D final : public SteppableSimulator {
  private:
   LeftVentricle3D(const LeftVentricle3D& other, int);  // clone(): shares the geometry only
   Status check_theta(const Eigen::Ref<const Eigen::VectorXd>& theta) const;
+  RunResult run_checked(const Eigen::Ref<const Eigen::VectorXd>& theta);
+  Status advance_checked(model::State& state, const Eigen::Ref<const Eigen::VectorXd>& theta, double t_end);
   Status step_to(model::State& state, const Eigen::Ref<const Eigen::VectorXd>& theta, double t_end,
                  int* newton_iterations, int* step_cuts);
 

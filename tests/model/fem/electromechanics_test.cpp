@@ -116,6 +116,10 @@ TEST(Lv3dRegistration, BadNumericsAreReportedAtTheirKey) {
   EXPECT_EQ(error_of({{"conduction_velocity", "-1"}}),
             "conduction_velocity: simulator.numerics: conduction_velocity = -1 m/s must lie in (0.01, 100) m/s");
   EXPECT_EQ(error_of({{"mesh", "medium"}, {"dt", "2e-3"}}), "");
+  LeftVentricle3DOptions too_coarse;
+  too_coarse.n_circumferential = 6;  // inverts curved elements at the apex
+  EXPECT_EQ(too_coarse.validate(), "n_circumferential must be a multiple of 6 in 12..120 (AHA 60-degree sectors)");
+  EXPECT_THROW(LeftVentricle3D{too_coarse}, std::invalid_argument);
   const LeftVentricle3DOptions o = read_lv3d_options(MapOptions({{"mesh", "fine"}, {"activation", "apex_distance"}}));
   EXPECT_EQ(o.n_transmural, 3);
   EXPECT_EQ(o.n_circumferential, 36);
