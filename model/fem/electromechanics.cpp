@@ -571,7 +571,7 @@ ParameterSpace LeftVentricle3D::default_parameters() {
     throw std::logic_error("LeftVentricle3D::default_parameters: no parameter " + name);
   };
   // 3D values where the sphere's tuning does not carry over (docs/models.md s.4.6).
-  set("c1", 600.0, "passive Mooney-Rivlin c1 on the isochoric invariants [T3D: EDV in 120-170 mL at the coarse mesh]");
+  set("c1", 600.0, "passive Mooney-Rivlin c1 on the isochoric invariants [T3D: EDV ~150 mL at P_at0 on the coarse mesh]");
   set("c2", 900.0, "passive Mooney-Rivlin c2 [T3D: with c1, c_exp]");
   set("c_exp", 600.0, "exponential passive stiffening c_exp (exp(b_exp (Ibar1 - 3)^2) - 1) [T3D]");
   set("eta", 70.0, "parallel viscosity of S_visc = eta dE/dt [C14 working set value, 3D form of Chapelle 2012]");
@@ -580,8 +580,8 @@ ParameterSpace LeftVentricle3D::default_parameters() {
     Parameter p = s0;
     p.name = "sigma0_" + two_digits(k);
     p.nominal = 8.0e4;
-    p.doc = "contractility of AHA segment " + std::to_string(k) + " (" + std::to_string(k) +
-            "/17) [T3D: EF ~60 % on the coarse mesh]";
+    p.doc = "contractility (maximal active stress) of the wall in AHA segment " + std::to_string(k) +
+            " [T3D: EF ~47 % on the coarse mesh, periodic beat]";
     p.family = "contractility";
     p.segment = k;
     out.push_back(p);
