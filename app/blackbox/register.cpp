@@ -3,6 +3,10 @@
 #include "app/blackbox/external_model.h"
 #include "app/blackbox/umbridge.h"
 
+#ifdef SIGMAHEART_HAVE_FEM
+#include "model/fem/register.h"
+#endif
+
 namespace sigmaheart::app::blackbox {
 
 void register_blackbox_models(model::ModelRegistry& registry) {
@@ -20,6 +24,10 @@ void register_blackbox_models(model::ModelRegistry& registry) {
 const model::ModelRegistry& cli_models() {
   static const model::ModelRegistry models = [] {
     model::ModelRegistry r = model::builtin_models();
+#ifdef SIGMAHEART_HAVE_FEM
+    // The 3D models live in sigmaheart::fem, outside builtin_models() (model/fem/register.h).
+    model::fem::register_fem_models(r);
+#endif
     register_blackbox_models(r);
     return r;
   }();

@@ -10,7 +10,8 @@ namespace sigmaheart::app::blackbox {
 // Adds `external` and `umbridge` to `registry`.
 void register_blackbox_models(model::ModelRegistry& registry);
 
-// model::builtin_models() plus the black-box models, built once.
+// model::builtin_models(), the 3D models of sigmaheart::fem (lv-3d, when built) and the
+// black-box models, built once.
 const model::ModelRegistry& cli_models();
 
 }  // namespace sigmaheart::app::blackbox

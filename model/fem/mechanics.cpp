@@ -137,6 +137,25 @@ void Mechanics::build_pattern() {
     for (int r : d)
       for (int c : d) trip.emplace_back(r, c, 0.0);
   }
+  // Greedy element colouring: an element takes the first colour none of its nodes has yet.
+  {
+    std::vector<std::vector<int>> node_colours(static_cast<size_t>(nv));
+    colours_.clear();
+    for (Eigen::Index e = 0; e < mesh_.tets.rows(); ++e) {
+      size_t c = 0;
+      for (;; ++c) {
+        bool free = true;
+        for (int a = 0; a < npt_ && free; ++a) {
+          const auto& used = node_colours[static_cast<size_t>(mesh_.tets(e, a))];
+          free = std::find(used.begin(), used.end(), static_cast<int>(c)) == used.end();
+        }
+        if (free) break;
+      }
+      if (c == colours_.size()) colours_.emplace_back();
+      colours_[c].push_back(static_cast<int>(e));
+      for (int a = 0; a < npt_; ++a) node_colours[static_cast<size_t>(mesh_.tets(e, a))].push_back(static_cast<int>(c));
+    }
+  }
   pattern_.resize(ndof_, ndof_);
   pattern_.setFromTriplets(trip.begin(), trip.end());
   pattern_.makeCompressed();
@@ -220,7 +239,8 @@ std::vector<Frame> Mechanics::element_frames() const {
   return out;
 }
 
-bool Mechanics::assemble(const State& s, const Load& load, Eigen::VectorXd* residual, SparseMatrix* tangent) const {
+bool Mechanics::assemble(const State& s, const Load& load, Eigen::VectorXd* residual, SparseMatrix* tangent,
+                         const StressHook& hook) const {
   const int nv = mesh_.n_nodes();
   const int nloc = 3 * npt_ + 4;
   const bool incompressible = !(opt_.bulk_modulus > 0) || std::isinf(opt_.bulk_modulus);
@@ -244,8 +264,10 @@ bool Mechanics::assemble(const State& s, const Load& load, Eigen::VectorXd* resi
     Matrix9d D, G, A;
     Eigen::Matrix<double, 3, 9> M;
     bool ok_local = true;
+    for (const auto& colour : colours_) {
 #pragma omp for schedule(static)
-    for (Eigen::Index e = 0; e < mesh_.tets.rows(); ++e) {
+    for (size_t ci = 0; ci < colour.size(); ++ci) {
+      const Eigen::Index e = colour[ci];
       for (int a = 0; a < npt_; ++a) ue.row(a) = s.u.segment<3>(3 * mesh_.tets(e, a)).transpose();
       for (int q = 0; q < 4; ++q) pe[q] = s.p[mesh_.tets(e, q)];
       Re.setZero();
@@ -265,6 +287,7 @@ bool Mechanics::assemble(const State& s, const Load& load, Eigen::VectorXd* resi
         }
         const Eigen::Matrix3d E = 0.5 * (F.transpose() * F - I3);
         material_->stress(E, R, S, D);
+        if (hook) hook(static_cast<int>(e), q, E, R, S, D);
         if (ta != 0.0) S += ta * R.col(0) * R.col(0).transpose();
         const Eigen::Matrix3d FiT = F.inverse().transpose();
         const Eigen::Vector4d& Np = np_[static_cast<size_t>(q)];
@@ -316,15 +339,10 @@ bool Mechanics::assemble(const State& s, const Load& load, Eigen::VectorXd* resi
       }
       if (!ok_local) continue;
       if (residual) {
+        // No two elements of a colour share a node: plain adds, no race, a fixed order.
         for (int a = 0; a < npt_; ++a)
-          for (int i = 0; i < 3; ++i) {
-#pragma omp atomic
-            (*residual)[3 * mesh_.tets(e, a) + i] += Re[3 * a + i];
-          }
-        for (int k = 0; k < 4; ++k) {
-#pragma omp atomic
-          (*residual)[3 * nv + mesh_.tets(e, k)] += Re[3 * npt_ + k];
-        }
+          for (int i = 0; i < 3; ++i) (*residual)[3 * mesh_.tets(e, a) + i] += Re[3 * a + i];
+        for (int k = 0; k < 4; ++k) (*residual)[3 * nv + mesh_.tets(e, k)] += Re[3 * npt_ + k];
       }
       if (tangent) {
         const int* pos = &elem_pos_[static_cast<size_t>(e) * static_cast<size_t>(nloc * nloc)];
@@ -332,11 +350,11 @@ bool Mechanics::assemble(const State& s, const Load& load, Eigen::VectorXd* resi
           for (int c = 0; c < nloc; ++c) {
             const double v = Ke(r, c);
             // Column-major storage: Ke(r, c) goes to entry (row r, column c).
-#pragma omp atomic
             kv[pos[r * nloc + c]] += v;
           }
       }
     }
+    }  // colours
     if (!ok_local) {
 #pragma omp atomic write
       ok = false;
@@ -389,6 +407,27 @@ bool Mechanics::assemble(const State& s, const Load& load, Eigen::VectorXd* resi
   }
   if (residual && !residual->allFinite()) return false;
   return true;
+}
+
+Eigen::VectorXd Mechanics::pressure_load(const State& s) const {
+  Eigen::VectorXd b = Eigen::VectorXd::Zero(3 * mesh_.n_nodes());
+  const int npf = mesh_.nodes_per_face();
+  const auto& rule = tri_rule(mesh_.order == 2 ? 4 : 2);
+  Eigen::VectorXd N;
+  Eigen::MatrixXd dN;
+  Eigen::MatrixXd x(npf, 3);
+  for (const int f : load_faces_) {
+    for (int a = 0; a < npf; ++a) x.row(a) = position(s, mesh_.faces(f, a)).transpose();
+    for (const auto& qp : rule) {
+      tri_shape(mesh_.order, qp.xi, N, dN);
+      const Eigen::Vector3d xa = x.transpose() * dN.col(0), xb = x.transpose() * dN.col(1);
+      const Eigen::Vector3d n = xa.cross(xb);
+      for (int a = 0; a < npf; ++a) b.segment<3>(3 * mesh_.faces(f, a)) += qp.weight * N[a] * n;
+    }
+  }
+  for (Eigen::Index i = 0; i < b.size(); ++i)
+    if (fixed_[static_cast<size_t>(i)]) b[i] = 0.0;
+  return b;
 }
 
 Summary Mechanics::solve(State& state, const Load& from, const Load& to, const ProgressCallback& progress) {

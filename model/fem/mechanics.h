@@ -79,6 +79,14 @@ struct Summary {
   std::string brief_report() const;
 };
 
+// A stress added at every quadrature point to the material's: S += S_extra, D += D_extra (the
+// active and viscous stresses of a time step, model/fem/electromechanics.h). Arguments: element,
+// quadrature point (element-major index element * n_qp + qp), Green-Lagrange strain E, local frame
+// R, and S, D to add to. Called concurrently for distinct (element, qp) pairs, each pair once per
+// assembly: it may write per-point data of its own without locks.
+using StressHook = std::function<void(int element, int qp, const Eigen::Matrix3d& E, const Frame& R,
+                                      Eigen::Matrix3d& S, Matrix9d& D)>;
+
 // Per-step progress: (load fraction, Newton iterations of the step, final residual).
 using ProgressCallback = std::function<void(double lambda, int iterations, double residual)>;
 
@@ -104,7 +112,16 @@ class Mechanics {
 
   // Residual and tangent in the full numbering (u then p), Dirichlet rows/columns replaced by
   // identity. Returns false when some J <= 0 or a value is not finite (then outputs are junk).
-  bool assemble(const State& s, const Load& load, Eigen::VectorXd* residual, SparseMatrix* tangent) const;
+  // The element loop runs colour by colour (no two elements of a colour share a node), so the
+  // sums are formed in the same order whatever the number of OpenMP threads: same bits.
+  bool assemble(const State& s, const Load& load, Eigen::VectorXd* residual, SparseMatrix* tangent,
+                const StressHook& hook = {}) const;
+  // Follower-pressure load vector per unit pressure, int N_a n da over the pressure surfaces in
+  // the current configuration (n leaving the solid): dR/dP of assemble(), 3 entries per node,
+  // zero on Dirichlet dofs.
+  Eigen::VectorXd pressure_load(const State& s) const;
+  double reference_volume() const { return ref_volume_; }
+  bool is_fixed(int dof) const { return fixed_[static_cast<size_t>(dof)] != 0; }
 
   // Moves the load from `from` to `to` in options.load_steps increments, Newton at each, cutting
   // steps on failure. `state` holds the converged state at `from` on entry and the last
@@ -136,6 +153,7 @@ class Mechanics {
   SparseMatrix pattern_;
   std::vector<int> elem_pos_;  // value positions per element local (nloc x nloc)
   std::vector<int> face_pos_;
+  std::vector<std::vector<int>> colours_;  // element colouring of build_pattern()
   double ref_volume_ = 0.0;
 };
 

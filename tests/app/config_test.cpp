@@ -1,6 +1,8 @@
 // The common config sections and `--set` overrides (app/config.h), on the real lumped sphere.
 #include "app/config.h"
 
+#include "app/blackbox/register.h"
+
 #include "model/lumped/sphere.h"
 #include "model/units.h"
 
@@ -111,6 +113,26 @@ TEST(Config, InvalidNumericsPointAtTheField) {
             }),
             "x.yaml:5:18: simulator.numerics: dt = 0.5 s must lie in (0, 0.05]");
 }
+
+#ifdef SIGMAHEART_HAVE_FEM
+// The 3D heartbeat of the command line's registry reads its numerics through the same reader.
+TEST(Config, Lv3dNumericsErrorsPointAtTheField) {
+  const std::string lv =
+      "name: lv\n"
+      "simulator:\n"
+      "  model: lv-3d\n"
+      "  numerics: {mesh: coarse, dt: 0.5}\n"
+      "  parameters:\n"
+      "    sigma0_07: 6.0e4\n";
+  EXPECT_EQ(error_of([&] { parse_config(lv, "x.yaml", {}, blackbox::cli_models()); }),
+            "x.yaml:4:32: simulator.numerics: dt = 0.5 s must lie in [1e-05, 0.05] s");
+  EXPECT_EQ(error_of([&] { parse_config(with_line(lv, 4, "  numerics: {mesh: huge}"), "x.yaml", {}, blackbox::cli_models()); })
+                .rfind("x.yaml:4:20: simulator.numerics.mesh: unknown value 'huge'", 0),
+            0u);
+  const Config c = parse_config(with_line(lv, 4, "  numerics: {mesh: coarse, dt: 10 ms}"), "x.yaml", {}, blackbox::cli_models());
+  EXPECT_EQ(c.simulator.model, "lv-3d");
+}
+#endif
 
 TEST(Config, UnknownModelAndMissingSectionsAreReported) {
   EXPECT_EQ(error_of([] { parse_config(with_line(kHealthy, 4, "  model: lumped-spere"), "x.yaml"); })

@@ -1,0 +1,90 @@
+// Wall time of one heartbeat of the 3D electromechanical LV (model/fem/electromechanics.h) against
+// mesh size, on 1 and 2 OpenMP threads (the element assembly is threaded; the sparse LU is not).
+// One iteration = the passive inflation plus one beat (period 0.85 s, dt 5 ms). Arguments:
+// (mesh preset 0 coarse, 1 medium, 2 fine; threads). Counters: tetrahedra, unknowns of the
+// mechanics (u, p), Newton iterations and step cuts of the beat, EF of the beat [%].
+//   build/bench/lv3d_beat_bench --benchmark_counters_tabular=true
+// The target of issue 13: a beat on about 10 000 tetrahedra under 60 s on one core; not met.
+// Measured on the shared 2-core machine (load average 4-10 from other builds, so wall times are
+// upper bounds; SparseLU, quadrature degree 2):
+//   coarse (396 tets, 2639 unknowns), one beat at dt 5 ms: 1 thread 26.1 s wall / 24.7 s CPU,
+//     848 Newton iterations, no step cut, EF 40.8 %; 2 threads 65.2 s wall / 39.2 s CPU, the same
+//     EF to the last digit (colour-ordered assembly); the LU factorisation dominates and is not
+//     threaded, and the per-colour OpenMP barriers cost more than they save on a loaded machine.
+//   coarse, inflation + 10 steps: 1 thread 3.68 s wall / 3.11 s CPU; 2 threads 26.1 s / 6.47 s.
+//   medium (3312 tets, 17 802 unknowns), inflation + 10 steps, 1 thread: 805 s wall / 264 s CPU
+//     (a beat would take tens of CPU minutes). Medium on 2 threads, the medium beat and the fine
+//     mesh (~11 000 tets) were not run: the SparseLU factorisation of the P2-P1 tangent grows far
+//     faster than the mesh and is the cost to attack (an iterative solver with an algebraic
+//     multigrid preconditioner, or UMFPACK/METIS with its nondeterminism accepted).
+#include "model/fem/electromechanics.h"
+#include "model/fem/register.h"
+
+#include <benchmark/benchmark.h>
+#include <omp.h>
+
+namespace {
+
+using namespace sigmaheart::model;
+using namespace sigmaheart::model::fem;
+
+void BM_Lv3dBeat(benchmark::State& st) {
+  const char* presets[] = {"coarse", "medium", "fine"};
+  LeftVentricle3DOptions o = with_mesh_preset({}, presets[st.range(0)]);
+  o.max_beats = 1;
+  o.periodic_tolerance = 1.0;
+  omp_set_num_threads(static_cast<int>(st.range(1)));
+  LeftVentricle3D lv(o);
+  const Eigen::VectorXd theta = lv.parameters().nominal();
+  RunResult r;
+  for (auto _ : st) {
+    r = lv.run(theta);
+    if (!r.status.ok()) {
+      st.SkipWithError(r.status.message.c_str());
+      break;
+    }
+  }
+  st.counters["tets"] = lv.mesh().n_tets();
+  st.counters["unknowns"] = 3.0 * lv.mesh().n_nodes() + lv.mesh().n_vertices;
+  st.counters["newton"] = r.info.newton_iterations;
+  st.counters["cuts"] = r.info.step_cuts;
+  if (r.status.ok()) {
+    const Eigen::VectorXd V = r.trajectory.channel("V_lv");
+    st.counters["EF_percent"] = 100.0 * (1.0 - V.minCoeff() / V.maxCoeff());
+  }
+}
+// The passive inflation plus the first 10 time steps of the beat (isovolumic contraction, the
+// hardest Newton solves), for sizes whose full beat takes too long to repeat: a beat is ~170 steps
+// at dt 5 ms, about half of them in the easier ejection and filling phases.
+void BM_Lv3dInflationAndTenSteps(benchmark::State& st) {
+  const char* presets[] = {"coarse", "medium", "fine"};
+  LeftVentricle3DOptions o = with_mesh_preset({}, presets[st.range(0)]);
+  omp_set_num_threads(static_cast<int>(st.range(1)));
+  LeftVentricle3D lv(o);
+  const Eigen::VectorXd theta = lv.parameters().nominal();
+  for (auto _ : st) {
+    sigmaheart::model::State s = lv.initial_state(theta);
+    const Status status = lv.advance(s, theta, 10 * o.dt);
+    if (!status.ok()) {
+      st.SkipWithError(status.message.c_str());
+      break;
+    }
+  }
+  st.counters["tets"] = lv.mesh().n_tets();
+  st.counters["unknowns"] = 3.0 * lv.mesh().n_nodes() + lv.mesh().n_vertices;
+}
+BENCHMARK(BM_Lv3dInflationAndTenSteps)
+    ->ArgsProduct({{0, 1, 2}, {1, 2}})
+    ->Unit(benchmark::kSecond)
+    ->Iterations(1)
+    ->UseRealTime();
+
+BENCHMARK(BM_Lv3dBeat)
+    ->ArgsProduct({{0, 1, 2}, {1, 2}})
+    ->Unit(benchmark::kSecond)
+    ->Iterations(1)
+    ->UseRealTime();
+
+}  // namespace
+
+BENCHMARK_MAIN();

@@ -1,0 +1,905 @@
+#include "model/fem/electromechanics.h"
+
+#include "model/fem/element.h"
+#include "model/fem/fibres.h"
+#include "model/fem/solver.h"
+#include "model/lumped/shell.h"
+#include "model/lumped/sphere.h"
+
+#include <Eigen/Dense>
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <cmath>
+#include <iomanip>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+
+namespace sigmaheart::model::fem {
+
+namespace shell = lumped::shell;
+namespace circ = circulation;
+
+// ---------------------------------------------------------------------------------------------
+// Passive law.
+namespace {
+
+Matrix9d outer9(const Eigen::Matrix3d& A, const Eigen::Matrix3d& B) {
+  Matrix9d M;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      for (int k = 0; k < 3; ++k)
+        for (int l = 0; l < 3; ++l) M(3 * i + j, 3 * k + l) = A(i, j) * B(k, l);
+  return M;
+}
+
+// (A_ik A_jl + A_il A_jk)/2.
+Matrix9d sym_product9(const Eigen::Matrix3d& A) {
+  Matrix9d M;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      for (int k = 0; k < 3; ++k)
+        for (int l = 0; l < 3; ++l) M(3 * i + j, 3 * k + l) = 0.5 * (A(i, k) * A(j, l) + A(i, l) * A(j, k));
+  return M;
+}
+
+}  // namespace
+
+std::string BcsPassiveParameters::validate() const {
+  auto bad = [](double v) { return !std::isfinite(v) || v < 0; };
+  if (bad(c1)) return "c1 must be finite and >= 0";
+  if (bad(c2)) return "c2 must be finite and >= 0";
+  if (bad(c_exp)) return "c_exp must be finite and >= 0";
+  if (bad(b_exp)) return "b_exp must be finite and >= 0";
+  return {};
+}
+
+BcsPassive::BcsPassive(const BcsPassiveParameters& p) : p_(p) {
+  if (auto m = p_.validate(); !m.empty()) throw std::invalid_argument("BcsPassive: " + m);
+}
+
+double BcsPassive::energy(const Eigen::Matrix3d& E, const Frame&) const {
+  const Eigen::Matrix3d C = Eigen::Matrix3d::Identity() + 2.0 * E;
+  const double I1 = C.trace(), I2 = 0.5 * (I1 * I1 - (C * C).trace()), I3 = C.determinant();
+  const double a = std::pow(I3, -1.0 / 3.0);
+  const double Q = a * I1 - 3.0;
+  return p_.c1 * Q + p_.c2 * (a * a * I2 - 3.0) + p_.c_exp * (std::exp(p_.b_exp * Q * Q) - 1.0);
+}
+
+void BcsPassive::stress(const Eigen::Matrix3d& E, const Frame&, Eigen::Matrix3d& S, Matrix9d& D) const {
+  // W(C) = c1 f1 + c2 f2 + g(f1), f1 = I3^-1/3 I1, f2 = I3^-2/3 I2, g(f) = c_exp (exp(b (f-3)^2) - 1);
+  // S = 2 dW/dC, D = dS/dE = 4 d2W/dC2 (the isochoric invariants as in MooneyRivlin, material.cpp).
+  const Eigen::Matrix3d I = Eigen::Matrix3d::Identity();
+  const Eigen::Matrix3d C = I + 2.0 * E;
+  const Eigen::Matrix3d Ci = C.inverse();
+  const double I1 = C.trace(), I2 = 0.5 * (I1 * I1 - (C * C).trace()), I3 = C.determinant();
+  const double a = std::pow(I3, -1.0 / 3.0), b = a * a;
+  const Eigen::Matrix3d dg = I1 * I - C;  // dI2/dC
+  const Eigen::Matrix3d df1 = a * (I - I1 / 3.0 * Ci);
+  const Eigen::Matrix3d df2 = b * (dg - 2.0 / 3.0 * I2 * Ci);
+  const double Q = a * I1 - 3.0;
+  const double ex = p_.c_exp > 0 ? std::exp(p_.b_exp * Q * Q) : 0.0;
+  const double g1 = 2.0 * p_.b_exp * p_.c_exp * Q * ex;                            // g'(f1)
+  const double g2 = 2.0 * p_.b_exp * p_.c_exp * ex * (1.0 + 2.0 * p_.b_exp * Q * Q);  // g''(f1)
+  const double w1 = p_.c1 + g1;
+  S = 2.0 * (w1 * df1 + p_.c2 * df2);
+  const Matrix9d ICi = sym_product9(Ci);
+  const Matrix9d d2f1 = -a / 3.0 * (outer9(I, Ci) + outer9(Ci, I) - I1 / 3.0 * outer9(Ci, Ci) - I1 * ICi);
+  const Matrix9d d2g = outer9(I, I) - sym_product9(I);
+  const Matrix9d d2f2 = -2.0 / 3.0 * b * outer9(dg - 2.0 / 3.0 * I2 * Ci, Ci) +
+                        b * (d2g - 2.0 / 3.0 * outer9(Ci, dg) + 2.0 / 3.0 * I2 * ICi);
+  D = 4.0 * (w1 * d2f1 + p_.c2 * d2f2 + g2 * outer9(df1, df1));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Options.
+std::string LeftVentricle3DOptions::validate() const {
+  std::ostringstream s;
+  if (n_transmural < 1 || n_transmural > 8) return "n_transmural must be in 1..8";
+  if (n_longitudinal < 6 || n_longitudinal > 60) return "n_longitudinal must be in 6..60";
+  // Below 12 elements around (and 6 along) the curved quadratic tetrahedra near the apex invert.
+  if (n_circumferential < 12 || n_circumferential > 120 || n_circumferential % 6 != 0)
+    return "n_circumferential must be a multiple of 6 in 12..120 (AHA 60-degree sectors)";
+  if (quadrature_degree != 2 && quadrature_degree != 5) return "quadrature_degree must be 2 or 5";
+  if (!(std::abs(fibre_endo_deg) <= 90) || !(std::abs(fibre_epi_deg) <= 90))
+    return "fibre angles must lie in [-90, 90] deg";
+  if (!(dt >= 1e-5 && dt <= 0.05)) {
+    s << "dt = " << dt << " s must lie in [1e-05, 0.05] s";
+    return s.str();
+  }
+  if (max_step_cuts < 0 || max_step_cuts > 12) return "max_step_cuts must be in 0..12";
+  if (inflation_steps < 1 || inflation_steps > 100) return "inflation_steps must be in 1..100";
+  if (min_beats < 1) return "min_beats must be >= 1";
+  if (max_beats < min_beats || max_beats > 1000) return "max_beats must be in [min_beats, 1000]";
+  if (!(periodic_tolerance > 0 && periodic_tolerance < 10)) return "periodic_tolerance must lie in (0, 10)";
+  if (output_every < 1) return "output_every must be >= 1";
+  if (!(newton_tolerance > 1e-14 && newton_tolerance < 1e-2)) return "newton_tolerance must lie in (1e-14, 1e-2)";
+  if (newton_max_iterations < 1 || newton_max_iterations > 200) return "newton_max_iterations must be in 1..200";
+  if (!(conduction_velocity > 0.01 && conduction_velocity < 100)) {
+    s << "conduction_velocity = " << conduction_velocity << " m/s must lie in (0.01, 100) m/s";
+    return s.str();
+  }
+  return {};
+}
+
+// ---------------------------------------------------------------------------------------------
+// Geometry (shared, immutable) and per-object caches.
+namespace {
+
+// Scales of the Newton rows (as the lumped models, model/lumped/shell.h).
+constexpr double kPref = shell::kPref;  // [Pa]
+constexpr double kVref = shell::kVref;  // [m^3]
+constexpr double kLref = 1e-3;          // [m] displacement scale of the step test
+
+struct Geometry {
+  Mesh mesh;
+  std::vector<Frame> frames;      // per quadrature point
+  AhaLabels labels;
+  std::vector<double> qp_np;      // P1 shape values at the rule's points, 4 per point
+  int nqp = 0;                    // per element
+  std::vector<double> td;         // activation time per quadrature point [s]
+  double force_ref = 1.0;         // [N] kPref times the mean endocardial nodal area
+  double volume_ref = 1.0;        // [m^3] mean reference volume per vertex
+};
+
+std::string two_digits(int k) {
+  std::ostringstream s;
+  s << std::setw(2) << std::setfill('0') << k;
+  return s.str();
+}
+
+// Activation times at the quadrature points from per-vertex times (P1 interpolation).
+std::vector<double> interpolate_vertex_times(const Geometry& g, const std::vector<double>& vt) {
+  std::vector<double> out(static_cast<size_t>(g.mesh.n_tets()) * static_cast<size_t>(g.nqp));
+  for (int e = 0; e < g.mesh.n_tets(); ++e)
+    for (int q = 0; q < g.nqp; ++q) {
+      double t = 0.0;
+      for (int k = 0; k < 4; ++k) t += g.qp_np[static_cast<size_t>(4 * q + k)] * vt[static_cast<size_t>(g.mesh.tets(e, k))];
+      out[static_cast<size_t>(e * g.nqp + q)] = t;
+    }
+  return out;
+}
+
+std::shared_ptr<Geometry> build_geometry(const LeftVentricle3DOptions& o) {
+  auto g = std::make_shared<Geometry>();
+  const EllipsoidGeometry shape = EllipsoidGeometry::human();
+  EllipsoidMeshOptions mo;
+  mo.n_transmural = o.n_transmural;
+  mo.n_longitudinal = o.n_longitudinal;
+  mo.n_circumferential = o.n_circumferential;
+  mo.order = 2;
+  mo.align_aha_levels = true;
+  g->mesh = ellipsoid_mesh(shape, mo);
+  FibreOptions fo;
+  fo.alpha_endo_deg = o.fibre_endo_deg;
+  fo.alpha_epi_deg = o.fibre_epi_deg;
+  g->frames = ellipsoid_fibres(g->mesh, shape, fo, o.quadrature_degree);
+  g->labels = aha_labels(g->mesh);
+  const auto& rule = tet_rule(o.quadrature_degree);
+  g->nqp = static_cast<int>(rule.size());
+  for (const auto& qp : rule) {
+    const auto& xi = qp.xi;
+    for (double v : {1 - xi[0] - xi[1] - xi[2], xi[0], xi[1], xi[2]}) g->qp_np.push_back(v);
+  }
+  // Reference scales of the Newton rows.
+  double area = 0.0;
+  for (Eigen::Index f = 0; f < g->mesh.faces.rows(); ++f) {
+    if (g->mesh.face_tag[static_cast<size_t>(f)] != kEndocardium) continue;
+    const Eigen::Vector3d p0 = g->mesh.nodes.row(g->mesh.faces(f, 0)), p1 = g->mesh.nodes.row(g->mesh.faces(f, 1)),
+                          p2 = g->mesh.nodes.row(g->mesh.faces(f, 2));
+    area += 0.5 * (p1 - p0).cross(p2 - p0).norm();
+  }
+  const auto endo_nodes = g->mesh.nodes_with_tag(kEndocardium);
+  g->force_ref = kPref * area / static_cast<double>(std::max<size_t>(1, endo_nodes.size()));
+  g->volume_ref = g->mesh.volume() / g->mesh.n_vertices;
+  // Default activation times.
+  std::vector<double> vt(static_cast<size_t>(g->mesh.n_vertices), 0.0);
+  if (o.activation == ActivationSource::kApexDistance) {
+    // Straight-line distance from the endocardial apex (a stand-in for the eikonal solve).
+    for (int v = 0; v < g->mesh.n_vertices; ++v)
+      vt[static_cast<size_t>(v)] = (g->mesh.nodes.row(v).transpose() - g->labels.frame.apex).norm() / o.conduction_velocity;
+    const double t0 = *std::min_element(vt.begin(), vt.end());
+    for (double& t : vt) t -= t0;
+  }
+  g->td = interpolate_vertex_times(*g, vt);
+  return g;
+}
+
+// Positions of the parameters in theta.
+struct Index {
+  int c1, c2, c_exp, b_exp, eta, Es, mu, alpha, k0, k_ATP, k_RS, APD, period, K_at, K_ar, K_p, R_p, R_d, C_p, C_d,
+      P_sv, P_at0, P_at_kick, C_cav, n0_slope, n0_e_max;
+  std::array<int, kAhaSegments> sigma0;
+};
+
+Index make_index(const ParameterSpace& s) {
+  Index i{};
+  auto at = [&](const char* n) { return s.index_or_throw(n); };
+  i.c1 = at("c1"); i.c2 = at("c2"); i.c_exp = at("c_exp"); i.b_exp = at("b_exp"); i.eta = at("eta");
+  i.Es = at("Es"); i.mu = at("mu"); i.alpha = at("alpha"); i.k0 = at("k0"); i.k_ATP = at("k_ATP");
+  i.k_RS = at("k_RS"); i.APD = at("APD"); i.period = at("period"); i.K_at = at("K_at"); i.K_ar = at("K_ar");
+  i.K_p = at("K_p"); i.R_p = at("R_p"); i.R_d = at("R_d"); i.C_p = at("C_p"); i.C_d = at("C_d");
+  i.P_sv = at("P_sv"); i.P_at0 = at("P_at0"); i.P_at_kick = at("P_at_kick"); i.C_cav = at("C_cav");
+  i.n0_slope = at("n0_slope"); i.n0_e_max = at("n0_e_max");
+  for (int k = 0; k < kAhaSegments; ++k) i.sigma0[static_cast<size_t>(k)] = at(("sigma0_" + two_digits(k + 1)).c_str());
+  return i;
+}
+
+// The model's values unpacked from theta.
+struct Model {
+  BcsPassiveParameters passive;
+  double eta = 0.0, period = 0.0;
+  bcs::ActiveParameters act;  // sigma0 per segment below
+  std::array<double, kAhaSegments> sigma0{};
+  circ::CirculationParameters circ;
+  circ::AtrialPressure atrial;
+};
+
+Model unpack(const Eigen::Ref<const Eigen::VectorXd>& th, const Index& i) {
+  Model m;
+  m.passive = {th(i.c1), th(i.c2), th(i.c_exp), th(i.b_exp)};
+  m.eta = th(i.eta);
+  m.period = th(i.period);
+  m.act.Es = th(i.Es);
+  m.act.mu = th(i.mu);
+  m.act.alpha = th(i.alpha);
+  m.act.k0 = th(i.k0);
+  m.act.k_ATP = th(i.k_ATP);
+  m.act.k_RS = th(i.k_RS);
+  m.act.APD = th(i.APD);
+  m.act.n0_slope = th(i.n0_slope);
+  m.act.n0_e_max = th(i.n0_e_max);
+  for (int k = 0; k < kAhaSegments; ++k) m.sigma0[static_cast<size_t>(k)] = th(i.sigma0[static_cast<size_t>(k)]);
+  m.circ = {th(i.K_at), th(i.K_ar), th(i.K_p), th(i.R_p), th(i.R_d), th(i.C_p), th(i.C_d), th(i.P_sv), th(i.C_cav)};
+  m.atrial.P_at0 = th(i.P_at0);
+  m.atrial.P_at_kick = th(i.P_at_kick);
+  m.atrial.period = m.period;
+  return m;
+}
+
+// The unknowns of a step, unpacked from / packed into State::x.
+struct Unknowns {
+  fem::State ms;  // u, p
+  double Pv = 0.0, Par = 0.0, Pd = 0.0;
+  std::vector<bcs::ActiveState> act;
+  double last_open = 0.0;
+};
+
+}  // namespace
+
+struct LeftVentricle3D::Impl {
+  std::shared_ptr<const Geometry> geo;
+  Index index{};
+  // Mechanics with the passive law of the last theta (rebuilt when c1, c2, c_exp, b_exp change).
+  std::unique_ptr<Mechanics> mech;
+  BcsPassiveParameters mech_passive{-1, -1, -1, -1};
+  BaseCondition base = BaseCondition::kSliding;
+  LeftVentricle3DOptions options;
+  std::unique_ptr<SparseDirectSolver> lu;  // SparseLU with the pattern analysed once (step())
+
+  Mechanics& mechanics(const BcsPassiveParameters& p) {
+    if (!mech || p.c1 != mech_passive.c1 || p.c2 != mech_passive.c2 || p.c_exp != mech_passive.c_exp ||
+        p.b_exp != mech_passive.b_exp) {
+      MechanicsOptions mo;
+      mo.bulk_modulus = 0.0;
+      mo.quadrature_degree = options.quadrature_degree;
+      mo.pressure_surfaces = {kEndocardium};
+      mo.load_steps = options.inflation_steps;
+      mo.max_newton_iterations = 30;
+      mo.linear_solver = options.linear_solver;
+      mech = std::make_unique<Mechanics>(geo->mesh, geo->frames, std::make_unique<BcsPassive>(p), mo);
+      mech->apply_base_condition(kBase, base);
+      mech_passive = p;
+    }
+    return *mech;
+  }
+
+  int nq() const { return geo->mesh.n_tets() * geo->nqp; }
+  Eigen::Index nu() const { return 3 * static_cast<Eigen::Index>(geo->mesh.n_nodes()); }
+  Eigen::Index np() const { return geo->mesh.n_vertices; }
+  Eigen::Index state_size() const { return nu() + np() + 3 + 3 * static_cast<Eigen::Index>(nq()) + 1; }
+
+  Unknowns unpack_state(const Eigen::VectorXd& x) const {
+    Unknowns k;
+    Eigen::Index o = 0;
+    k.ms.u = x.segment(o, nu());
+    o += nu();
+    k.ms.p = x.segment(o, np());
+    o += np();
+    k.Pv = x(o++);
+    k.Par = x(o++);
+    k.Pd = x(o++);
+    const int n = nq();
+    k.act.resize(static_cast<size_t>(n));
+    for (int i = 0; i < n; ++i) k.act[static_cast<size_t>(i)].e_c = x(o + i);
+    for (int i = 0; i < n; ++i) k.act[static_cast<size_t>(i)].k_c = x(o + n + i);
+    for (int i = 0; i < n; ++i) k.act[static_cast<size_t>(i)].tau_c = x(o + 2 * n + i);
+    k.last_open = x(x.size() - 1);
+    return k;
+  }
+
+  Eigen::VectorXd pack_state(const Unknowns& k) const {
+    Eigen::VectorXd x(state_size());
+    Eigen::Index o = 0;
+    x.segment(o, nu()) = k.ms.u;
+    o += nu();
+    x.segment(o, np()) = k.ms.p;
+    o += np();
+    x(o++) = k.Pv;
+    x(o++) = k.Par;
+    x(o++) = k.Pd;
+    const int n = nq();
+    for (int i = 0; i < n; ++i) {
+      x(o + i) = k.act[static_cast<size_t>(i)].e_c;
+      x(o + n + i) = k.act[static_cast<size_t>(i)].k_c;
+      x(o + 2 * n + i) = k.act[static_cast<size_t>(i)].tau_c;
+    }
+    x(x.size() - 1) = k.last_open;
+    return x;
+  }
+
+  Eigen::MatrixX3d positions(const Eigen::VectorXd& u) const {
+    Eigen::MatrixX3d x = geo->mesh.nodes;
+    for (Eigen::Index n = 0; n < x.rows(); ++n) x.row(n) += u.segment<3>(3 * n).transpose();
+    return x;
+  }
+
+  // Green-Lagrange strain at every quadrature point of (u, p) (one residual assembly).
+  bool strains(Mechanics& mc, const fem::State& s, std::vector<Eigen::Matrix3d>& E) const {
+    E.resize(static_cast<size_t>(nq()));
+    const int nqp = geo->nqp;
+    const StressHook record = [&](int e, int q, const Eigen::Matrix3d& Eq, const Frame&, Eigen::Matrix3d&, Matrix9d&) {
+      E[static_cast<size_t>(e * nqp + q)] = Eq;
+    };
+    Eigen::VectorXd R;
+    return mc.assemble(s, Load{}, &R, nullptr, record);
+  }
+
+  int step(const Model& m, const Unknowns& xo, double t0, double t1, Unknowns& xn);
+};
+
+namespace {
+
+// The symmetric identity on 3x3 tensors, (delta_ik delta_jl + delta_il delta_jk)/2: dS = eta/h dE
+// for the viscous stress, in the minor-symmetric form the mechanics' tangent expects.
+const Matrix9d& symmetric_identity() {
+  static const Matrix9d I = sym_product9(Eigen::Matrix3d::Identity());
+  return I;
+}
+
+}  // namespace
+
+// One backward-Euler step from xo at t0 to t1 (module comment). Returns the Newton iterations, or
+// -1 when Newton failed (the caller cuts the step).
+int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, double t1, Unknowns& xn) {
+  const Geometry& g = *geo;
+  Mechanics& mc = mechanics(m.passive);
+  const double h = t1 - t0;
+  const int n = nq();
+  const int nqp = g.nqp;
+  const Eigen::Index nu_ = nu(), np_ = np(), nx = nu_ + np_;
+
+  // E^n: the strains of the first evaluation below, which is at u^n (no viscous stress there).
+  std::vector<Eigen::Matrix3d> En(static_cast<size_t>(n));
+  bool first_evaluation = true;
+  std::vector<bcs::StepActivation> acts(static_cast<size_t>(n));
+  for (int i = 0; i < n; ++i) acts[static_cast<size_t>(i)] = bcs::step_activation(t0, t1, g.td[static_cast<size_t>(i)], m.period, m.act);
+  std::vector<bcs::ActiveState> trial(static_cast<size_t>(n));
+  std::atomic<bool> local_failed{false};
+  const double eta_h = m.eta / h;
+  const StressHook hook = [&](int e, int q, const Eigen::Matrix3d& E, const Frame& R, Eigen::Matrix3d& S, Matrix9d& D) {
+    const size_t i = static_cast<size_t>(e * nqp + q);
+    if (first_evaluation) En[i] = E;
+    const Eigen::Vector3d f = R.col(0);
+    const double eff = f.dot(E * f);
+    bcs::ActiveParameters ap = m.act;
+    ap.sigma0 = m.sigma0[static_cast<size_t>(g.labels.element_segment[static_cast<size_t>(e)] - 1)];
+    bcs::CondensedStep cs;
+    if (!bcs::condense_step(ap, xo.act[i], eff, acts[i], h, cs)) local_failed.store(true, std::memory_order_relaxed);
+    trial[i] = cs.state;
+    const Eigen::Matrix3d ff = f * f.transpose();
+    S += cs.stress * ff + eta_h * (E - En[i]);
+    const Eigen::Map<const Eigen::Matrix<double, 9, 1>> vff(ff.data());  // ff symmetric: any vec order
+    D.noalias() += cs.tangent * (vff * vff.transpose());
+    D += eta_h * symmetric_identity();
+  };
+
+  const double P_at = m.atrial(t1);
+  // Distal Windkessel solved exactly for P_d given P_ar (as the lumped models, shell.h).
+  const double Pd_den = m.circ.C_d / h + 1.0 / m.circ.R_p + 1.0 / m.circ.R_d;
+  const double Pd_rhs = m.circ.C_d / h * xo.Pd + m.circ.P_sv / m.circ.R_d;
+  const double dPd_dPar = 1.0 / (m.circ.R_p * Pd_den);
+  const double V_old = cavity_volumes(g.mesh, positions(xo.ms.u), g.labels).cavity;
+
+  // Evaluation at a trial point: residuals, tangent and the bordering terms.
+  struct Eval {
+    fem::State ms;
+    double Pv = 0, Par = 0, Pd = 0;
+    Eigen::VectorXd R;
+    SparseMatrix K;
+    Eigen::VectorXd b;  // dR_x/dP_v (pressure rows zero)
+    Eigen::VectorXd gV; // dr_c/dx = dV/du / h (fixed dofs and pressure rows zero)
+    double rc = 0, rar = 0, c11 = 0, c12 = 0, c21 = 0, c22 = 0;
+    double merit = 0, scaled_max = 0;
+    std::vector<bcs::ActiveState> act;
+  };
+  const double fv = h / kVref;  // cavity and Windkessel rows scaled to volumes over the step
+  auto evaluate = [&](Eval& ev) -> bool {
+    local_failed = false;
+    if (!mc.assemble(ev.ms, Load{ev.Pv, 0.0}, &ev.R, &ev.K, hook)) return false;
+    if (local_failed) return false;
+    ev.act = trial;
+    const CavityVolumes cv = cavity_volumes(g.mesh, positions(ev.ms.u), g.labels, true);
+    ev.b = Eigen::VectorXd::Zero(nx);
+    ev.b.head(nu_) = mc.pressure_load(ev.ms);
+    ev.gV = Eigen::VectorXd::Zero(nx);
+    for (Eigen::Index k = 0; k < nu_; ++k)
+      if (!mc.is_fixed(static_cast<int>(k))) ev.gV(k) = cv.gradient(k) / h;
+    const circ::ValveFlow q = circ::valve_flow(ev.Pv, ev.Par, P_at, m.circ);
+    ev.Pd = (Pd_rhs + ev.Par / m.circ.R_p) / Pd_den;
+    const circ::WindkesselResidual w = circ::windkessel_residual(ev.Par, ev.Pd, xo.Par, xo.Pd, q.q_ar, h, m.circ);
+    ev.rc = m.circ.C_cav * (ev.Pv - xo.Pv) / h + q.q + (cv.cavity - V_old) / h;
+    ev.c11 = m.circ.C_cav / h + q.dq_dPv;
+    ev.c12 = q.dq_dPar;
+    ev.rar = w.r_ar;
+    ev.c21 = -q.dqar_dPv;
+    ev.c22 = w.dar_dPar + w.dar_dPd * dPd_dPar - q.dqar_dPar;
+    const double ru = ev.R.head(nu_).cwiseAbs().maxCoeff() / g.force_ref;
+    const double rp = ev.R.tail(np_).cwiseAbs().maxCoeff() / g.volume_ref;
+    const double rc = std::abs(ev.rc) * fv, rar = std::abs(ev.rar) * fv;
+    ev.scaled_max = std::max({ru, rp, rc, rar});
+    ev.merit = (ev.R.head(nu_) / g.force_ref).squaredNorm() + (ev.R.tail(np_) / g.volume_ref).squaredNorm() +
+               rc * rc + rar * rar;
+    return std::isfinite(ev.merit);
+  };
+
+  Eval cur;
+  cur.ms = xo.ms;
+  cur.Pv = xo.Pv;
+  cur.Par = xo.Par;
+  if (!evaluate(cur)) return -1;
+  first_evaluation = false;
+  // Newton's method with the factors of the tangent kept while they still contract the residual
+  // fast (a chord iteration, Kelley 2003, Solving Nonlinear Equations with Newton's Method, s.2.3):
+  // the LU factorisation costs ~20 assemblies on the quadratic meshes, so the tangent is
+  // refactorised only when an update reduced the merit (squared scaled residual) by less than 100
+  // or failed. The factorisation is redone at every step's first iteration, so a step is a pure function of
+  // its inputs (replay lands on the same bits).
+  // Eigen's SparseLU analyses the pattern only (the same for every step), so one analysis serves
+  // the object's life and every factorisation is a function of the tangent alone. UMFPACK's
+  // symbolic step also reads values, so it gets a fresh solver per step; its BLAS kernels round
+  // differently with the alignment of its workspace, so its runs in different threads differ by
+  // about 1e-6 relative: SparseLU is the default for bitwise reproducible runs.
+  std::unique_ptr<SparseDirectSolver> fresh;
+  if (options.linear_solver == LinearSolver::kSparseLU) {
+    if (!lu) lu = std::make_unique<SparseDirectSolver>(LinearSolver::kSparseLU);
+  } else {
+    fresh = std::make_unique<SparseDirectSolver>(options.linear_solver);
+  }
+  SparseDirectSolver& solver = fresh ? *fresh : *lu;
+  bool factors_fresh = false;  // the factors belong to the current point
+  bool have_factors = false;
+  const double tol = options.newton_tolerance;
+  int iterations = 0;
+  while (iterations <= options.newton_max_iterations) {
+    if (cur.scaled_max <= tol) {
+      xn = xo;
+      xn.ms = cur.ms;
+      xn.Pv = cur.Pv;
+      xn.Par = cur.Par;
+      xn.Pd = cur.Pd;
+      xn.act = std::move(cur.act);
+      return iterations;
+    }
+    if (iterations == options.newton_max_iterations) break;
+    ++iterations;
+    if (!have_factors) {
+      if (!solver.factorize(cur.K)) return -1;
+      have_factors = factors_fresh = true;
+    }
+    // Bordered system [K b 0; g^T c11 c12; 0 c21 c22] (dx, dPv, dPar) = -(R, rc, rar), by the Schur
+    // complement on K's factors: dx = w0 - w1 dPv.
+    const Eigen::VectorXd w0 = solver.solve(-cur.R);
+    const Eigen::VectorXd w1 = solver.solve(cur.b);
+    if (!w0.allFinite() || !w1.allFinite()) return -1;
+    Eigen::Matrix2d A;
+    A << cur.c11 - cur.gV.dot(w1), cur.c12, cur.c21, cur.c22;
+    const Eigen::Vector2d rhs(-cur.rc - cur.gV.dot(w0), -cur.rar);
+    const Eigen::Vector2d dP = A.fullPivLu().solve(rhs);
+    if (!dP.allFinite()) return -1;
+    const Eigen::VectorXd dx = w0 - w1 * dP(0);
+    // Backtracking on the scaled residual (Dennis & Schnabel 1996, alg. A6.3.1); with stale factors
+    // a failed full step refactorises instead.
+    bool accepted = false;
+    double lambda = 1.0;
+    const int max_halvings = factors_fresh ? 10 : 1;
+    for (int ls = 0; ls < max_halvings && !accepted; ++ls, lambda *= 0.5) {
+      Eval cand;
+      cand.ms.u = cur.ms.u + lambda * dx.head(nu_);
+      cand.ms.p = cur.ms.p + lambda * dx.tail(np_);
+      cand.Pv = cur.Pv + lambda * dP(0);
+      cand.Par = cur.Par + lambda * dP(1);
+      if (!evaluate(cand)) continue;
+      if (cand.merit <= (1.0 - 1e-4 * lambda) * cur.merit) {
+        accepted = true;
+        // Slow contraction: refactorise at the new point.
+        if (cand.merit > 0.01 * cur.merit) have_factors = false;
+      } else if (factors_fresh) {
+        // Relative step test (Dennis & Schnabel 1996, s.7.2): an update lost in the rounding of
+        // the unknowns ends the solve even when rounding keeps the residual above tol.
+        const double step = std::max({lambda * dx.head(nu_).cwiseAbs().maxCoeff() / kLref,
+                                      lambda * dx.tail(np_).cwiseAbs().maxCoeff() / kPref,
+                                      lambda * std::abs(dP(0)) / kPref, lambda * std::abs(dP(1)) / kPref});
+        if (step <= 1e-3 * tol && cand.scaled_max <= 1e3 * tol) {
+          cand.scaled_max = 0.0;  // converged by the step test
+          accepted = true;
+        }
+      }
+      if (accepted) {
+        cur = std::move(cand);
+        factors_fresh = false;
+      }
+    }
+    if (!accepted) {
+      if (factors_fresh) return -1;
+      have_factors = false;  // stale factors: refactorise at the current point and retry
+    }
+  }
+  return -1;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Parameters and channels.
+
+ParameterSpace LeftVentricle3D::default_parameters() {
+  const ParameterSpace sphere = lumped::LumpedSphere::default_parameters();
+  std::vector<Parameter> out;
+  // The sphere's parameters by name, minus its geometry (rho, R0, d0) and its single sigma0.
+  for (const Parameter& p : sphere.all()) {
+    if (p.name == "rho" || p.name == "R0" || p.name == "d0" || p.name == "sigma0") continue;
+    out.push_back(p);
+  }
+  auto set = [&](const std::string& name, double value, const std::string& doc) {
+    for (Parameter& p : out)
+      if (p.name == name) {
+        p.nominal = value;
+        p.doc = doc;
+        return;
+      }
+    throw std::logic_error("LeftVentricle3D::default_parameters: no parameter " + name);
+  };
+  // 3D values where the sphere's tuning does not carry over (docs/models.md s.4.8).
+  set("c1", 600.0, "passive Mooney-Rivlin c1 on the isochoric invariants [T3D: EDV ~150 mL at P_at0 on the coarse mesh]");
+  set("c2", 900.0, "passive Mooney-Rivlin c2 [T3D: with c1, c_exp]");
+  set("c_exp", 600.0, "exponential passive stiffening c_exp (exp(b_exp (Ibar1 - 3)^2) - 1) [T3D]");
+  set("eta", 70.0, "parallel viscosity of S_visc = eta dE/dt [C14 working set value, 3D form of Chapelle 2012]");
+  const Parameter s0 = sphere[sphere.index_or_throw("sigma0")];
+  for (int k = 1; k <= kAhaSegments; ++k) {
+    Parameter p = s0;
+    p.name = "sigma0_" + two_digits(k);
+    p.nominal = 8.0e4;
+    p.doc = "contractility (maximal active stress) of the wall in AHA segment " + std::to_string(k) +
+            " [T3D: EF ~47 % on the coarse mesh, periodic beat]";
+    p.family = "contractility";
+    p.segment = k;
+    out.push_back(p);
+  }
+  return ParameterSpace(std::move(out));
+}
+
+std::vector<Channel> LeftVentricle3D::channels() const {
+  std::vector<Channel> c = shell::circulation_channels();
+  c[0].doc = "left-ventricular cavity volume (endocardium closed by the base-ring lid)";
+  for (int k = 1; k <= kAhaSegments; ++k)
+    c.push_back({"V_seg" + two_digits(k), "m^3", "cavity volume of AHA segment " + std::to_string(k) + " (docs/models.md s.5)",
+                 "regional_volume", k});
+  return c;
+}
+
+std::vector<Channel> LeftVentricle3D::state_layout() const {
+  std::vector<Channel> s;
+  const Geometry& g = *impl_->geo;
+  s.reserve(static_cast<size_t>(impl_->state_size()));
+  const char* xyz[] = {"x", "y", "z"};
+  for (int n = 0; n < g.mesh.n_nodes(); ++n)
+    for (int d = 0; d < 3; ++d) s.push_back({"u" + std::string(xyz[d]) + "_" + std::to_string(n), "m", "displacement"});
+  for (int v = 0; v < g.mesh.n_vertices; ++v) s.push_back({"p_" + std::to_string(v), "Pa", "hydrostatic pressure"});
+  s.push_back({"P_v", "Pa", "cavity pressure"});
+  s.push_back({"P_ar", "Pa", "proximal arterial pressure"});
+  s.push_back({"P_d", "Pa", "distal arterial pressure"});
+  const int n = impl_->nq();
+  for (int i = 0; i < n; ++i) s.push_back({"e_c_" + std::to_string(i), "1", "contractile strain"});
+  for (int i = 0; i < n; ++i) s.push_back({"k_c_" + std::to_string(i), "Pa", "active stiffness"});
+  for (int i = 0; i < n; ++i) s.push_back({"tau_c_" + std::to_string(i), "Pa", "active stress"});
+  s.push_back(shell::last_open_valve_entry());
+  return s;
+}
+
+// ---------------------------------------------------------------------------------------------
+LeftVentricle3D::LeftVentricle3D(LeftVentricle3DOptions options, ParameterSpace parameters)
+    : options_(std::move(options)), parameters_(std::move(parameters)), impl_(std::make_unique<Impl>()) {
+  if (auto msg = options_.validate(); !msg.empty()) throw std::invalid_argument("LeftVentricle3DOptions: " + msg);
+  impl_->options = options_;
+  impl_->base = options_.base;
+  impl_->geo = build_geometry(options_);
+  impl_->index = make_index(parameters_);
+  // Builds the mechanics once: a mesh with an inverted element is refused here, not in run().
+  impl_->mechanics(unpack(parameters_.nominal(), impl_->index).passive);
+}
+
+LeftVentricle3D::LeftVentricle3D(LeftVentricle3DOptions options)
+    : LeftVentricle3D(std::move(options), default_parameters()) {}
+
+LeftVentricle3D::~LeftVentricle3D() = default;
+
+LeftVentricle3D::LeftVentricle3D(const LeftVentricle3D& other, int)
+    : options_(other.options_), parameters_(other.parameters_), impl_(std::make_unique<Impl>()) {
+  impl_->options = other.impl_->options;
+  impl_->base = other.impl_->base;
+  impl_->geo = other.impl_->geo;  // immutable, shared
+  impl_->index = other.impl_->index;
+}
+
+std::unique_ptr<Simulator> LeftVentricle3D::clone() const {
+  auto c = std::unique_ptr<LeftVentricle3D>(new LeftVentricle3D(*this, 0));
+  return c;
+}
+
+const Mesh& LeftVentricle3D::mesh() const { return impl_->geo->mesh; }
+const AhaLabels& LeftVentricle3D::labels() const { return impl_->geo->labels; }
+int LeftVentricle3D::n_quadrature_points() const { return impl_->nq(); }
+const std::vector<double>& LeftVentricle3D::activation_times() const { return impl_->geo->td; }
+
+void LeftVentricle3D::set_activation_times(const std::vector<double>& vertex_times) {
+  const Geometry& g = *impl_->geo;
+  if (vertex_times.size() != static_cast<size_t>(g.mesh.n_vertices))
+    throw std::invalid_argument("set_activation_times: need one time per mesh vertex (" +
+                                std::to_string(g.mesh.n_vertices) + "), got " + std::to_string(vertex_times.size()));
+  for (double t : vertex_times)
+    if (!std::isfinite(t) || t < 0) throw std::invalid_argument("set_activation_times: times must be finite and >= 0 s");
+  auto geo = std::make_shared<Geometry>(g);
+  geo->td = interpolate_vertex_times(*geo, vertex_times);
+  impl_->geo = std::move(geo);
+  options_.activation = ActivationSource::kPrescribed;
+  impl_->options.activation = ActivationSource::kPrescribed;
+}
+
+Status LeftVentricle3D::check_theta(const Eigen::Ref<const Eigen::VectorXd>& theta) const {
+  if (theta.size() != parameters_.size()) {
+    std::ostringstream s;
+    s << "theta has " << theta.size() << " entries, expected " << parameters_.size();
+    return Status::Error(StatusCode::kInvalidArgument, s.str());
+  }
+  if (const std::string msg = parameters_.check(theta); !msg.empty()) return Status::Error(StatusCode::kOutOfBounds, msg);
+  const Model m = unpack(theta, impl_->index);
+  if (m.act.APD >= m.period) return Status::Error(StatusCode::kOutOfBounds, "APD must be shorter than the period");
+  if (options_.dt > m.period / 20) {
+    std::ostringstream s;
+    s << "dt = " << options_.dt << " s must be <= period / 20 = " << m.period / 20 << " s";
+    return Status::Error(StatusCode::kInvalidArgument, s.str());
+  }
+  const double td_max = *std::max_element(impl_->geo->td.begin(), impl_->geo->td.end());
+  if (td_max >= m.period) {
+    std::ostringstream s;
+    s << "the latest activation time " << td_max << " s is not inside the period " << m.period << " s";
+    return Status::Error(StatusCode::kInvalidArgument, s.str());
+  }
+  return Status::Ok();
+}
+
+model::State LeftVentricle3D::initial_state(const Eigen::Ref<const Eigen::VectorXd>& theta) {
+  model::State st;
+  st.time = 0.0;
+  if (!check_theta(theta).ok()) {
+    st.x = Eigen::VectorXd::Constant(impl_->state_size(), std::numeric_limits<double>::quiet_NaN());
+    return st;
+  }
+  const Model m = unpack(theta, impl_->index);
+  Mechanics& mech = impl_->mechanics(m.passive);
+  Unknowns k;
+  k.ms = mech.initial_state();
+  const double P0 = m.atrial(0.0);
+  const Summary sum = mech.solve(k.ms, Load{}, Load{P0, 0.0});
+  k.Pv = P0;
+  // Arteries at typical diastolic pressures; the beats settle from there (as the lumped models).
+  k.Par = std::max(P0, 75.0 * 133.322);
+  k.Pd = std::max(P0, 70.0 * 133.322);
+  k.last_open = static_cast<double>(circ::ValveRegime::kFilling);
+  std::vector<Eigen::Matrix3d> E;
+  const bool ok = sum.converged && impl_->strains(mech, k.ms, E);
+  // Relaxed contractile elements: e_c equals the fibre strain, so the active stress is zero.
+  k.act.assign(static_cast<size_t>(impl_->nq()), bcs::ActiveState{});
+  const auto& frames = impl_->geo->frames;
+  for (size_t i = 0; ok && i < k.act.size(); ++i) {
+    const Eigen::Vector3d f = frames[i].col(0);
+    k.act[i].e_c = f.dot(E[i] * f);
+  }
+  st.x = impl_->pack_state(k);
+  if (!ok) st.x.setConstant(std::numeric_limits<double>::quiet_NaN());
+  return st;
+}
+
+Status LeftVentricle3D::step_to(model::State& state, const Eigen::Ref<const Eigen::VectorXd>& theta, double t_end,
+                                int* newton_iterations, int* step_cuts) {
+  const Model m = unpack(theta, impl_->index);
+  Unknowns x = impl_->unpack_state(state.x);
+  double t = state.time;
+  while (t < t_end) {
+    const double t1 = shell::next_time(t, t_end, options_.dt, m.period);
+    if (!(t1 > t)) {
+      std::ostringstream s;
+      s << "time step " << options_.dt << " s is below the resolution of t = " << t << " s";
+      return Status::Error(StatusCode::kInvalidArgument, s.str());
+    }
+    Unknowns xn;
+    bool done = false;
+    for (int cut = 0; cut <= options_.max_step_cuts && !done; ++cut) {
+      const int nsub = 1 << cut;
+      Unknowns xs = x;
+      bool ok = true;
+      for (int k = 0; k < nsub && ok; ++k) {
+        const double ta = t + (t1 - t) * k / nsub;
+        const double tb = (k + 1 == nsub) ? t1 : t + (t1 - t) * (k + 1) / nsub;
+        Unknowns xk;
+        const int its = impl_->step(m, xs, ta, tb, xk);
+        if (its < 0) {
+          ok = false;
+        } else {
+          xs = std::move(xk);
+          if (newton_iterations) *newton_iterations += its;
+        }
+      }
+      if (ok) {
+        xn = std::move(xs);
+        done = true;
+        if (cut > 0 && step_cuts) *step_cuts += cut;
+      }
+    }
+    if (!done) {
+      state.x = impl_->pack_state(x);
+      state.time = t;
+      const double V = cavity_volumes(impl_->geo->mesh, impl_->positions(x.ms.u), impl_->geo->labels).cavity;
+      std::ostringstream s;
+      s << "Newton did not converge at t = " << t1 << " s after " << options_.max_step_cuts
+        << " step halvings (V = " << V * 1e6 << " mL, P_v = " << x.Pv / 133.322 << " mmHg)";
+      return Status::Error(StatusCode::kDiverged, s.str());
+    }
+    const auto regime = circ::valve_flow(xn.Pv, xn.Par, m.atrial(t1), m.circ).regime;
+    if (regime != circ::ValveRegime::kClosed) xn.last_open = static_cast<double>(regime);
+    x = std::move(xn);
+    t = t1;
+  }
+  state.x = impl_->pack_state(x);
+  state.time = t_end;
+  return Status::Ok();
+}
+
+Status LeftVentricle3D::advance(model::State& state, const Eigen::Ref<const Eigen::VectorXd>& theta, double t_end) {
+  try {
+    return advance_checked(state, theta, t_end);
+  } catch (const std::exception& e) {  // never thrown for a valid set-up; a Status, not a crash
+    return Status::Error(StatusCode::kInvalidArgument, std::string("lv-3d: ") + e.what());
+  }
+}
+
+Status LeftVentricle3D::advance_checked(model::State& state, const Eigen::Ref<const Eigen::VectorXd>& theta,
+                                        double t_end) {
+  if (Status s = check_theta(theta); !s.ok()) return s;
+  if (state.x.size() != impl_->state_size()) {
+    std::ostringstream s;
+    s << "state has " << state.x.size() << " entries, expected " << impl_->state_size();
+    return Status::Error(StatusCode::kInvalidArgument, s.str());
+  }
+  if (!state.x.allFinite()) return Status::Error(StatusCode::kNonFinite, "the state holds NaN or Inf");
+  if (!(t_end >= state.time)) {
+    std::ostringstream s;
+    s << "t_end = " << t_end << " s lies before the state's time " << state.time << " s";
+    return Status::Error(StatusCode::kInvalidArgument, s.str());
+  }
+  return step_to(state, theta, t_end, nullptr, nullptr);
+}
+
+Eigen::VectorXd LeftVentricle3D::sample(const model::State& state, const Eigen::Ref<const Eigen::VectorXd>& theta) const {
+  const Model m = unpack(theta, impl_->index);
+  const Geometry& g = *impl_->geo;
+  const Eigen::Index nu_ = impl_->nu(), np_ = impl_->np();
+  const Eigen::VectorXd u = state.x.head(nu_);
+  const double Pv = state.x(nu_ + np_), Par = state.x(nu_ + np_ + 1), Pd = state.x(nu_ + np_ + 2);
+  const CavityVolumes cv = cavity_volumes(g.mesh, impl_->positions(u), g.labels);
+  const double P_at = m.atrial(state.time);
+  const auto q = circ::valve_flow(Pv, Par, P_at, m.circ);
+  const auto last = state.x(state.x.size() - 1) > 1.0 ? circ::ValveRegime::kEjection : circ::ValveRegime::kFilling;
+  Eigen::VectorXd out(8 + kAhaSegments);
+  out << cv.cavity, Pv, Par, P_at, q.q_ar, q.q_at, static_cast<double>(circ::phase(q.regime, last)), Pd,
+      Eigen::Map<const Eigen::VectorXd>(cv.regional.data(), kAhaSegments);
+  return out;
+}
+
+std::unique_ptr<SteppableSimulator> LeftVentricle3D::with_time_step_factor(double factor) const {
+  if (!(factor > 0) || !std::isfinite(factor)) return nullptr;
+  LeftVentricle3DOptions o = options_;
+  o.dt *= factor;
+  if (!o.validate().empty()) return nullptr;
+  auto c = std::unique_ptr<LeftVentricle3D>(new LeftVentricle3D(*this, 0));
+  c->options_ = o;
+  c->impl_->options = o;
+  c->impl_->mech.reset();
+  return c;
+}
+
+RunResult LeftVentricle3D::run(const Eigen::Ref<const Eigen::VectorXd>& theta) {
+  try {
+    return run_checked(theta);
+  } catch (const std::exception& e) {  // never thrown for a valid set-up; a Status, not a crash
+    RunResult r;
+    r.trajectory.channels = channels();
+    r.status = Status::Error(StatusCode::kInvalidArgument, std::string("lv-3d: ") + e.what());
+    return r;
+  }
+}
+
+RunResult LeftVentricle3D::run_checked(const Eigen::Ref<const Eigen::VectorXd>& theta) {
+  RunResult result;
+  result.trajectory.channels = channels();
+  if (Status s = check_theta(theta); !s.ok()) {
+    result.status = s;
+    return result;
+  }
+  const Model m = unpack(theta, impl_->index);
+  const double T = m.period;
+  result.info.period = T;
+  model::State s = initial_state(theta);
+  if (!s.x.allFinite()) {
+    result.status = Status::Error(StatusCode::kDiverged,
+                                  "the passive inflation to the atrial pressure of t = 0 did not converge");
+    return result;
+  }
+  const Eigen::Index nu_ = impl_->nu(), np_ = impl_->np();
+  for (int beat = 1; beat <= options_.max_beats; ++beat) {
+    const double t_begin = (beat - 1) * T, t_beat_end = beat * T;
+    s.time = t_begin;  // the grid of beat b starts exactly at (b - 1) T
+    const model::State start = s;
+    std::vector<double> times{0.0};
+    std::vector<Eigen::VectorXd> rows{sample(s, theta)};
+    int k = 0;
+    while (s.time < t_beat_end) {
+      const double t1 = shell::next_time(s.time, t_beat_end, options_.dt, T);
+      result.status = step_to(s, theta, t1, &result.info.newton_iterations, &result.info.step_cuts);
+      if (!result.status.ok()) break;
+      ++k;
+      if (k % options_.output_every == 0 || t1 >= t_beat_end) {
+        times.push_back(std::min(t1 - t_begin, T));
+        rows.push_back(sample(s, theta));
+      }
+    }
+    result.info.beats = beat;
+    auto& tr = result.trajectory;
+    tr.times = Eigen::Map<const Eigen::VectorXd>(times.data(), static_cast<Eigen::Index>(times.size()));
+    tr.values.resize(static_cast<Eigen::Index>(rows.size()), static_cast<Eigen::Index>(tr.channels.size()));
+    for (size_t r = 0; r < rows.size(); ++r) tr.values.row(static_cast<Eigen::Index>(r)) = rows[r].transpose();
+    if (!result.status.ok()) return result;
+    // Beat-to-beat change of the beat-start state: V relative to the start volume, pressures
+    // relative to the peak ventricular pressure of the beat.
+    const double V0 = tr.values(0, 0), V1 = tr.values(tr.values.rows() - 1, 0);
+    const double Ppk = std::max(tr.values.col(1).maxCoeff(), kPref);
+    const Eigen::Index o = nu_ + np_;
+    const double change = std::max({std::abs(V1 - V0) / V0, std::abs(s.x(o) - start.x(o)) / Ppk,
+                                    std::abs(s.x(o + 1) - start.x(o + 1)) / Ppk,
+                                    std::abs(s.x(o + 2) - start.x(o + 2)) / Ppk});
+    result.info.periodicity_change = change;
+    if (!tr.values.allFinite()) {
+      result.status = Status::Error(StatusCode::kNonFinite, "non-finite channel values in the beat");
+      return result;
+    }
+    if (beat >= options_.min_beats && change <= options_.periodic_tolerance) return result;
+  }
+  std::ostringstream msg;
+  msg << "not periodic after " << options_.max_beats << " beats: beat-to-beat change "
+      << result.info.periodicity_change << " > periodic_tolerance " << options_.periodic_tolerance;
+  result.status = Status::Error(StatusCode::kNotPeriodic, msg.str());
+  return result;
+}
+
+}  // namespace sigmaheart::model::fem

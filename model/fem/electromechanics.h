@@ -1,0 +1,157 @@
+// The 3D electromechanical left ventricle: the BCS active law (model/bcs) at every quadrature
+// point of the Taylor-Hood mechanics (mechanics.h), a parallel viscous stress, and the cavity
+// pressure coupled monolithically to the valves and Windkessel of model/circulation
+// (docs/models.md s.4.8). It uses the lumped sphere's laws and parameter names, so estimators
+// treat the two alike.
+//
+// Per time step [t^n, t^{n+1}], h = t^{n+1} - t^n, quasi-static (wall inertia left out, as in the
+// 3D BCS models of Chapelle et al. 2012 and the Land et al. 2015 benchmark; docs/models.md s.4.8
+// says why), backward Euler in every rate:
+//   R_u(u, p, P_v) = int (F S - p J F^-T) : grad(v) dV + P_v int v . n da       = 0  (balance)
+//   R_p(u)         = - int (J - 1) q dV                                       = 0  (incompressible)
+//   r_c            = (V(u) - V^n)/h + q(P_v, P_ar, P_at) + C_cav (P_v - P_v^n)/h = 0  (cavity)
+//   r_ar           = the proximal Windkessel row, P_d eliminated exactly      = 0
+// with S = S_passive(E) + sigma_1D(E_ff) f0 (x) f0 + eta (E - E^n)/h. sigma_1D is the BCS stress
+// of the point, condensed locally (bcs::condense_step: backward Euler on (e_c, k_c, tau_c) with its
+// activation time T_d and APD) with its consistent tangent. Newton's method runs on (u, p, P_v,
+// P_ar) together; the dense row dV/du and column dR_u/dP_v border the sparse tangent and are
+// eliminated by a Schur complement on its LU factors (two solves per iteration), so the sparse
+// solver keeps the mechanics pattern.
+#pragma once
+
+#include "model/bcs/active_law.h"
+#include "model/circulation/circulation.h"
+#include "model/fem/cavity.h"
+#include "model/fem/material.h"
+#include "model/fem/mechanics.h"
+#include "model/fem/mesh.h"
+#include "model/simulator.h"
+
+#include <Eigen/Core>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace sigmaheart::model::fem {
+
+// The passive law of the lumped sphere (docs/models.md s.2.1) written for 3D on the isochoric
+// invariants (Ibar_1 = J^-2/3 I_1, Ibar_2 = J^-4/3 I_2; the sphere's J1, J2 are these invariants of
+// its incompressible equibiaxial stretch):
+//   W = c1 (Ibar_1 - 3) + c2 (Ibar_2 - 3) + c_exp (exp(b_exp (Ibar_1 - 3)^2) - 1)
+// Incompressibility is the mechanics' mixed pressure, as for MooneyRivlin (material.h).
+struct BcsPassiveParameters {
+  double c1 = 100.0;    // [Pa]
+  double c2 = 150.0;    // [Pa]
+  double c_exp = 30.0;  // [Pa]
+  double b_exp = 1.0;   // [-]
+  std::string validate() const;
+};
+
+class BcsPassive final : public Material {
+ public:
+  explicit BcsPassive(const BcsPassiveParameters& p);
+  double energy(const Eigen::Matrix3d& E, const Frame& R) const override;
+  void stress(const Eigen::Matrix3d& E, const Frame& R, Eigen::Matrix3d& S, Matrix9d& D) const override;
+  std::unique_ptr<Material> clone() const override { return std::make_unique<BcsPassive>(p_); }
+  std::string name() const override { return "bcs-passive"; }
+
+ private:
+  BcsPassiveParameters p_;
+};
+
+// Where the activation times T_d of the quadrature points come from (until the eikonal solver is
+// wired in): every point at 0 (synchronous, as the lumped sphere), the wall distance from the
+// endocardial apex over a conduction velocity (apex first, base last), or one time per mesh
+// vertex given by the caller (set_activation_times), interpolated with the P1 shape functions.
+enum class ActivationSource { kSynchronous, kApexDistance, kPrescribed };
+
+struct LeftVentricle3DOptions {
+  // Mesh of the human-sized truncated ellipsoid (EllipsoidGeometry::human(), docs/models.md s.4.1),
+  // quadratic tetrahedra (P2-P1 Taylor-Hood).
+  int n_transmural = 1;
+  int n_longitudinal = 6;      // a multiple of 3 puts node rings on the AHA levels
+  int n_circumferential = 12;  // a multiple of 6 (nodes on the 60-degree AHA bounds), >= 12
+  int quadrature_degree = 2;   // 2 (4 points) or 5 (14 points)
+  double fibre_endo_deg = 60.0;   // helix angle at the endocardium [deg]
+  double fibre_epi_deg = -60.0;   // at the epicardium [deg]
+  BaseCondition base = BaseCondition::kSliding;
+
+  double dt = 5e-3;            // time step [s] (cut in halves on a failed Newton solve)
+  int max_step_cuts = 6;       // halvings of a step before the run fails (kDiverged)
+  int inflation_steps = 4;     // load steps from the unloaded reference to the pressure at t = 0
+  int min_beats = 1;           // beats before the periodicity test
+  int max_beats = 20;          // beats before giving up (kNotPeriodic)
+  double periodic_tolerance = 1e-3;  // beat-to-beat change of V, P_v, P_ar, P_d (relative)
+  int output_every = 1;        // keep every k-th step in the returned trajectory
+  double newton_tolerance = 1e-8;    // on the scaled residual rows (see electromechanics.cpp)
+  int newton_max_iterations = 20;
+
+  ActivationSource activation = ActivationSource::kSynchronous;
+  double conduction_velocity = 0.6;  // [m/s] for kApexDistance
+  // SparseLU by default: the same bits in every thread (electromechanics.cpp, step); UMFPACK
+  // (kAuto, kUmfPack) rounds with the alignment of its workspace.
+  LinearSolver linear_solver = LinearSolver::kSparseLU;
+
+  // Empty when valid, else a message starting with the offending field's name.
+  std::string validate() const;
+};
+
+// The steppable simulator "lv-3d". Parameters: those of the lumped sphere except its geometry
+// (rho, R0, d0: the mesh is the geometry) and sigma0, which is regional: sigma0_01..17, one per
+// AHA segment (family contractility). Channels: V_lv, P_lv, P_ar, P_at, q_ar, q_at, phase, P_d as
+// the lumped models, then V_seg01..V_seg17 (docs/models.md s.5). State: u (3 per node), p (per
+// vertex), P_v, P_ar, P_d, then e_c, k_c, tau_c per quadrature point, then last_open_valve.
+// t = 0 of every beat is the earliest depolarisation; run() starts from the unloaded mesh,
+// inflates it to the atrial pressure of t = 0 and repeats beats until the beat-start state repeats.
+class LeftVentricle3D final : public SteppableSimulator {
+ public:
+  // Throws std::invalid_argument for invalid options or parameter names (message says which).
+  LeftVentricle3D(LeftVentricle3DOptions options, ParameterSpace parameters);
+  explicit LeftVentricle3D(LeftVentricle3DOptions options = {});
+  ~LeftVentricle3D() override;
+
+  static ParameterSpace default_parameters();
+
+  std::string name() const override { return "lv-3d"; }
+  const ParameterSpace& parameters() const override { return parameters_; }
+  std::vector<Channel> channels() const override;
+  RunResult run(const Eigen::Ref<const Eigen::VectorXd>& theta) override;
+  std::unique_ptr<Simulator> clone() const override;
+
+  std::vector<Channel> state_layout() const override;
+  model::State initial_state(const Eigen::Ref<const Eigen::VectorXd>& theta) override;
+  Status advance(model::State& state, const Eigen::Ref<const Eigen::VectorXd>& theta,
+                 double t_end) override;
+  Eigen::VectorXd sample(const model::State& state,
+                         const Eigen::Ref<const Eigen::VectorXd>& theta) const override;
+  std::unique_ptr<SteppableSimulator> with_time_step_factor(double factor) const override;
+
+  // Activation times [s] at the mesh vertices (ActivationSource::kPrescribed), e.g. from an
+  // eikonal solve; std::invalid_argument when the size is not mesh().n_vertices or a value is
+  // negative or not finite.
+  void set_activation_times(const std::vector<double>& vertex_times);
+  // Activation time of every quadrature point (element-major) [s].
+  const std::vector<double>& activation_times() const;
+
+  const Mesh& mesh() const;
+  const AhaLabels& labels() const;
+  const LeftVentricle3DOptions& options() const { return options_; }
+  int n_quadrature_points() const;  // in total
+
+  struct Impl;  // geometry shared by clones (immutable) and per-object caches
+
+ private:
+  LeftVentricle3D(const LeftVentricle3D& other, int);  // clone(): shares the geometry only
+  Status check_theta(const Eigen::Ref<const Eigen::VectorXd>& theta) const;
+  RunResult run_checked(const Eigen::Ref<const Eigen::VectorXd>& theta);
+  Status advance_checked(model::State& state, const Eigen::Ref<const Eigen::VectorXd>& theta, double t_end);
+  Status step_to(model::State& state, const Eigen::Ref<const Eigen::VectorXd>& theta, double t_end,
+                 int* newton_iterations, int* step_cuts);
+
+  LeftVentricle3DOptions options_;
+  ParameterSpace parameters_;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace sigmaheart::model::fem

@@ -1,0 +1,83 @@
+#include "model/fem/register.h"
+
+#include <memory>
+
+namespace sigmaheart::model::fem {
+
+LeftVentricle3DOptions with_mesh_preset(LeftVentricle3DOptions o, const std::string& preset) {
+  if (preset == "coarse") {
+    o.n_transmural = 1, o.n_longitudinal = 6, o.n_circumferential = 12;
+  } else if (preset == "medium") {
+    o.n_transmural = 2, o.n_longitudinal = 12, o.n_circumferential = 24;
+  } else if (preset == "fine") {
+    o.n_transmural = 3, o.n_longitudinal = 18, o.n_circumferential = 36;
+  } else {
+    throw std::invalid_argument("unknown mesh preset '" + preset + "' (expected coarse, medium or fine)");
+  }
+  return o;
+}
+
+LeftVentricle3DOptions read_lv3d_options(const OptionReader& node) {
+  LeftVentricle3DOptions o;
+  node.check_keys({"mesh", "quadrature_degree", "fibre_endo", "fibre_epi", "base", "dt", "max_step_cuts",
+                   "inflation_steps", "min_beats", "max_beats", "periodic_tolerance", "output_every",
+                   "newton_tolerance", "newton_max_iterations", "activation", "conduction_velocity",
+                   "linear_solver"});
+  if (node.has("mesh")) {
+    const auto mesh = node.child("mesh");
+    if (mesh->is_map()) {
+      mesh->check_keys({"transmural", "longitudinal", "circumferential"});
+      o.n_transmural = mesh->integer("transmural", o.n_transmural);
+      o.n_longitudinal = mesh->integer("longitudinal", o.n_longitudinal);
+      o.n_circumferential = mesh->integer("circumferential", o.n_circumferential);
+    } else {
+      o = with_mesh_preset(o, node.choice("mesh", {"coarse", "medium", "fine"}));
+    }
+  }
+  o.quadrature_degree = node.integer("quadrature_degree", o.quadrature_degree);
+  o.fibre_endo_deg = node.number("fibre_endo", o.fibre_endo_deg);
+  o.fibre_epi_deg = node.number("fibre_epi", o.fibre_epi_deg);
+  if (node.has("base")) o.base = parse_base_condition(node.choice("base", {"sliding", "fixed"}));
+  o.dt = node.quantity("dt", "s", o.dt);
+  o.max_step_cuts = node.integer("max_step_cuts", o.max_step_cuts);
+  o.inflation_steps = node.integer("inflation_steps", o.inflation_steps);
+  o.min_beats = node.integer("min_beats", o.min_beats);
+  o.max_beats = node.integer("max_beats", o.max_beats);
+  o.periodic_tolerance = node.number("periodic_tolerance", o.periodic_tolerance);
+  o.output_every = node.integer("output_every", o.output_every);
+  o.newton_tolerance = node.number("newton_tolerance", o.newton_tolerance);
+  o.newton_max_iterations = node.integer("newton_max_iterations", o.newton_max_iterations);
+  if (node.has("activation")) {
+    o.activation = node.choice("activation", {"synchronous", "apex_distance"}) == "synchronous"
+                       ? ActivationSource::kSynchronous
+                       : ActivationSource::kApexDistance;
+  }
+  o.conduction_velocity = node.quantity("conduction_velocity", "m/s", o.conduction_velocity);
+  if (node.has("linear_solver"))
+    o.linear_solver = parse_linear_solver(node.choice("linear_solver", {"auto", "umfpack", "sparselu"}));
+  if (const std::string msg = o.validate(); !msg.empty()) {
+    // Messages start with the field name; map it to its key.
+    std::string field = msg.substr(0, msg.find_first_of(" ="));
+    if (field.rfind("n_", 0) == 0) field = "mesh";
+    if (field == "fibre") field = "fibre_endo";
+    node.fail(field, node.path() + ": " + msg);
+  }
+  return o;
+}
+
+void register_fem_models(ModelRegistry& registry) {
+  registry.add(ModelSetup{
+      "lv-3d",
+      "3D BCS left ventricle (P2-P1 finite elements, truncated ellipsoid) with the cavity pressure coupled "
+      "monolithically to valves and Windkessel; regional volumes V_segXX",
+      [](const OptionReader& numerics) {
+        const LeftVentricle3DOptions options = read_lv3d_options(numerics);
+        return ModelBuild(LeftVentricle3D::default_parameters(),
+                          [options](const ParameterSpace& p) -> std::unique_ptr<Simulator> {
+                            return std::make_unique<LeftVentricle3D>(options, p);
+                          });
+      },
+      {}});
+}
+
+}  // namespace sigmaheart::model::fem

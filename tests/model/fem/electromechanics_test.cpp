@@ -1,0 +1,271 @@
+// The 3D electromechanical beat (model/fem/electromechanics.h) on the coarse mesh: the passive
+// law's tangent, a closing beat with the phases in order, isovolumic phases that hold the volume,
+// indices in wide physiological ranges, the activation input, and bad numerics reported at their
+// key. The simulator contract and the periodic run are in electromechanics_slow_test.cpp.
+#include "model/fem/electromechanics.h"
+#include "model/fem/register.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <random>
+
+namespace sigmaheart::model::fem {
+namespace {
+
+TEST(BcsPassive, TangentMatchesFiniteDifferencesOfTheStress) {
+  BcsPassive law({200.0, 300.0, 200.0, 1.5});
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> U(-0.15, 0.15);
+  Eigen::Matrix3d E;
+  for (int i = 0; i < 3; ++i)
+    for (int j = i; j < 3; ++j) E(i, j) = E(j, i) = U(rng);
+  E += 0.2 * Eigen::Matrix3d::Identity();
+  const Frame R = Frame::Identity();
+  Eigen::Matrix3d S;
+  Matrix9d D;
+  law.stress(E, R, S, D);
+  // S = dW/dE against central differences of the energy.
+  const double h = 1e-6;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      Eigen::Matrix3d dE = Eigen::Matrix3d::Zero();
+      dE(i, j) += 0.5 * h;
+      dE(j, i) += 0.5 * h;
+      const double fd = (law.energy(E + dE, R) - law.energy(E - dE, R)) / (2 * h);
+      EXPECT_NEAR(S(i, j), fd, 1e-6 * S.norm()) << i << j;
+    }
+  // D (minor-symmetric) against central differences of S along symmetric directions.
+  for (int k = 0; k < 3; ++k)
+    for (int l = k; l < 3; ++l) {
+      Eigen::Matrix3d dE = Eigen::Matrix3d::Zero();
+      dE(k, l) += 0.5 * h;
+      dE(l, k) += 0.5 * h;
+      Eigen::Matrix3d Sp, Sm;
+      Matrix9d Dd;
+      law.stress(E + dE, R, Sp, Dd);
+      law.stress(E - dE, R, Sm, Dd);
+      const Eigen::Matrix3d fd = (Sp - Sm) / (2 * h);
+      Eigen::Matrix3d an;
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) an(i, j) = 0.5 * (D(3 * i + j, 3 * k + l) + D(3 * i + j, 3 * l + k));
+      EXPECT_LE((an - fd).norm(), 1e-5 * D.norm()) << "direction " << k << l;
+    }
+}
+
+bool contains(const std::vector<std::string>& v, const std::string& s) {
+  return std::find(v.begin(), v.end(), s) != v.end();
+}
+
+// Options given as a map (what app/'s config reader does with a YAML section), for tests.
+class MapOptions final : public OptionReader {
+ public:
+  explicit MapOptions(std::map<std::string, std::string> values) : values_(std::move(values)) {}
+  bool defined() const override { return true; }
+  bool has(const std::string& key) const override { return values_.count(key) > 0; }
+  bool is_map() const override { return true; }
+  std::string path() const override { return "simulator.numerics"; }
+  void check_keys(const std::vector<std::string>& allowed) const override {
+    for (const auto& [k, v] : values_)
+      if (!contains(allowed, k)) fail(k, "unknown key '" + k + "'");
+  }
+  double quantity(const std::string& key, const std::string&, double fallback) const override {
+    return has(key) ? std::stod(values_.at(key)) : fallback;
+  }
+  double number(const std::string& key, double fallback) const override { return quantity(key, "1", fallback); }
+  int integer(const std::string& key, int fallback) const override {
+    return has(key) ? std::stoi(values_.at(key)) : fallback;
+  }
+  std::string choice(const std::string& key, const std::vector<std::string>& allowed) const override {
+    if (!has(key) || !contains(allowed, values_.at(key))) fail(key, "bad choice");
+    return values_.at(key);
+  }
+  std::vector<double> quantities(const std::string& key, const std::string&) const override {
+    fail(key, "lists are not supported here");
+  }
+  std::unique_ptr<OptionReader> child(const std::string&) const override { return std::make_unique<NoOptions>(); }
+  [[noreturn]] void fail(const std::string& key, const std::string& message) const override {
+    throw std::invalid_argument(key + ": " + message);
+  }
+
+ private:
+  std::map<std::string, std::string> values_;
+};
+
+std::string error_of(const std::map<std::string, std::string>& values) {
+  try {
+    read_lv3d_options(MapOptions(values));
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(Lv3dRegistration, BadNumericsAreReportedAtTheirKey) {
+  EXPECT_EQ(error_of({{"dt", "0.5"}}), "dt: simulator.numerics: dt = 0.5 s must lie in [1e-05, 0.05] s");
+  EXPECT_EQ(error_of({{"max_beats", "0"}}), "max_beats: simulator.numerics: max_beats must be in [min_beats, 1000]");
+  EXPECT_EQ(error_of({{"mesh", "huge"}}), "mesh: bad choice");
+  EXPECT_EQ(error_of({{"dtt", "1e-3"}}), "dtt: unknown key 'dtt'");
+  EXPECT_EQ(error_of({{"quadrature_degree", "3"}}),
+            "quadrature_degree: simulator.numerics: quadrature_degree must be 2 or 5");
+  EXPECT_EQ(error_of({{"conduction_velocity", "-1"}}),
+            "conduction_velocity: simulator.numerics: conduction_velocity = -1 m/s must lie in (0.01, 100) m/s");
+  EXPECT_EQ(error_of({{"mesh", "medium"}, {"dt", "2e-3"}}), "");
+  LeftVentricle3DOptions too_coarse;
+  too_coarse.n_circumferential = 6;  // inverts curved elements at the apex
+  EXPECT_EQ(too_coarse.validate(), "n_circumferential must be a multiple of 6 in 12..120 (AHA 60-degree sectors)");
+  EXPECT_THROW(LeftVentricle3D{too_coarse}, std::invalid_argument);
+  const LeftVentricle3DOptions o = read_lv3d_options(MapOptions({{"mesh", "fine"}, {"activation", "apex_distance"}}));
+  EXPECT_EQ(o.n_transmural, 3);
+  EXPECT_EQ(o.n_circumferential, 36);
+  EXPECT_EQ(o.activation, ActivationSource::kApexDistance);
+}
+
+TEST(Lv3dRegistration, ParametersAreTaggedWithOneContractilityPerAhaSegment) {
+  ModelRegistry registry;
+  register_fem_models(registry);
+  const ModelSetup* setup = registry.find("lv-3d");
+  ASSERT_NE(setup, nullptr);
+  const ParameterSpace space = setup->configure_defaults().parameters();
+  for (const Parameter& p : space.all()) {
+    EXPECT_TRUE(contains(parameter_families(), p.family)) << p.name << " family '" << p.family << "'";
+  }
+  const auto seg = space.regional("contractility");
+  ASSERT_EQ(seg.size(), 17u);
+  for (int k = 0; k < 17; ++k) EXPECT_EQ(space[seg[static_cast<size_t>(k)]].segment, k + 1);
+  // The lumped sphere's names and units wherever the 3D model has the quantity.
+  for (const char* name : {"k_ATP", "k_RS", "APD", "period", "R_p", "C_cav", "c1", "eta"}) {
+    EXPECT_TRUE(space.index(name).has_value()) << name;
+  }
+  const auto sim = setup->configure_defaults().make();
+  for (const Channel& c : sim->channels())
+    if (c.name.rfind("V_seg", 0) == 0) {
+      EXPECT_EQ(c.family, "regional_volume");
+    }
+  EXPECT_EQ(sim->channels().size(), 8u + 17u);
+}
+
+TEST(LeftVentricle3D, ActivationTimesComeFromTheChosenSource) {
+  LeftVentricle3D sync;
+  const auto& t0 = sync.activation_times();
+  ASSERT_EQ(static_cast<int>(t0.size()), sync.n_quadrature_points());
+  EXPECT_EQ(*std::max_element(t0.begin(), t0.end()), 0.0);
+
+  LeftVentricle3DOptions o;
+  o.activation = ActivationSource::kApexDistance;
+  o.conduction_velocity = 0.5;
+  LeftVentricle3D apex(o);
+  const auto& t1 = apex.activation_times();
+  // The farthest quadrature point lies inside the wall: below the farthest vertex's distance
+  // (human ellipsoid: epicardial base ring ~ 64 mm from the endocardial apex) over 0.5 m/s.
+  double far = 0.0;
+  for (int v = 0; v < apex.mesh().n_vertices; ++v)
+    far = std::max(far, (apex.mesh().nodes.row(v).transpose() - apex.labels().frame.apex).norm());
+  const double latest = *std::max_element(t1.begin(), t1.end());
+  EXPECT_GT(latest, 0.8 * far / 0.5);
+  EXPECT_LE(latest, far / 0.5 + 1e-12);
+  EXPECT_GT(far, 0.05);
+  EXPECT_LT(far, 0.08);
+
+  // Prescribed per vertex: a linear field is interpolated exactly at the quadrature points.
+  std::vector<double> vt(static_cast<size_t>(sync.mesh().n_vertices));
+  for (int v = 0; v < sync.mesh().n_vertices; ++v) vt[static_cast<size_t>(v)] = 1.0 + sync.mesh().nodes(v, 2);
+  sync.set_activation_times(vt);
+  EXPECT_EQ(sync.options().activation, ActivationSource::kPrescribed);
+  const auto& t2 = sync.activation_times();
+  EXPECT_GT(*std::min_element(t2.begin(), t2.end()), 1.0 - 0.06);
+  EXPECT_LT(*std::max_element(t2.begin(), t2.end()), 1.0 + 0.02);
+  EXPECT_THROW(sync.set_activation_times({1.0, 2.0}), std::invalid_argument);
+  vt[3] = -1.0;
+  EXPECT_THROW(sync.set_activation_times(vt), std::invalid_argument);
+  // A time past the period is refused at run time as a Status.
+  for (double& t : vt) t = 2.0;
+  sync.set_activation_times(vt);
+  const RunResult r = sync.run(sync.parameters().nominal());
+  EXPECT_EQ(r.status.code, StatusCode::kInvalidArgument);
+  EXPECT_NE(r.status.message.find("activation time"), std::string::npos) << r.status.message;
+}
+
+// Two beats from the unloaded mesh on the coarse preset (396 tetrahedra, dt 20 ms); the checks run
+// on the second beat (the first starts from the static inflation, without the atrial kick's
+// filling). About 20 s of CPU; the periodic run to 1e-3 is in the slow tier.
+TEST(LeftVentricle3D, CoarseBeatClosesWithPhasesInOrderAndIsovolumicVolumesHeld) {
+  LeftVentricle3DOptions o;
+  o.dt = 0.02;
+  o.min_beats = 2;
+  o.max_beats = 2;
+  o.periodic_tolerance = 1.0;  // closure is checked below
+  LeftVentricle3D lv(o);
+  const RunResult r = lv.run(lv.parameters().nominal());
+  ASSERT_TRUE(r.status.ok()) << r.status.message;
+  EXPECT_EQ(r.info.beats, 2);
+  const Trajectory& tr = r.trajectory;
+  EXPECT_DOUBLE_EQ(tr.times(tr.samples() - 1), 0.85);
+  const Eigen::VectorXd V = tr.channel("V_lv"), P = tr.channel("P_lv"), ph = tr.channel("phase");
+  const double EDV = V.maxCoeff(), ESV = V.minCoeff(), SV = EDV - ESV;
+  std::printf("EDV %.2f mL, ESV %.2f mL, EF %.1f %%, peak P_lv %.1f mmHg, V(T) - V(0) %.3f mL\n", EDV * 1e6,
+              ESV * 1e6, 100 * SV / EDV, P.maxCoeff() / 133.322, (V(V.size() - 1) - V(0)) * 1e6);
+
+  // Phases in physiological order, filling (0) -> isovolumic contraction (1) -> ejection (2) ->
+  // isovolumic relaxation (3) -> filling: every change goes to the next phase of the cycle and each
+  // phase occurs once (the run that ends the beat may continue the one that started it: the mitral
+  // valve closes as the atrial kick falls, just before t = 0).
+  std::vector<int> order;
+  std::vector<std::pair<int, int>> runs;  // first and last sample of each phase run
+  for (int k = 0; k < tr.samples(); ++k) {
+    const int p = static_cast<int>(ph(k));
+    if (order.empty() || order.back() != p) {
+      order.push_back(p);
+      runs.emplace_back(k, k);
+    }
+    runs.back().second = k;
+  }
+  ASSERT_GE(order.size(), 4u);
+  ASSERT_LE(order.size(), 5u);
+  for (size_t j = 0; j + 1 < order.size(); ++j) EXPECT_EQ(order[j + 1], (order[j] + 1) % 4) << "phase run " << j;
+  if (order.size() == 5) {
+    EXPECT_EQ(order.front(), order.back());
+  }
+
+  // Isovolumic phases hold the volume: the only volume change is C_cav dP_v and the closed-valve
+  // leak K_p (P_v - P_at), about 0.1 mL per phase; bound: 1 % of the stroke volume per phase run.
+  for (size_t j = 0; j < runs.size(); ++j) {
+    if (order[j] != 1 && order[j] != 3) continue;
+    const auto [a, b] = runs[j];
+    const Eigen::VectorXd seg = V.segment(a, b - a + 1);
+    EXPECT_LT(seg.maxCoeff() - seg.minCoeff(), 0.01 * SV)
+        << "phase " << order[j] << ": volume change " << (seg.maxCoeff() - seg.minCoeff()) * 1e6 << " mL";
+  }
+  for (int phase : {1, 3}) {
+    int n = 0;
+    for (int k = 0; k < tr.samples(); ++k) n += static_cast<int>(ph(k)) == phase;
+    EXPECT_GE(n, 3) << "phase " << phase << " has too few samples";
+  }
+
+  // The beat closes: the volume at its end returns to its start within 3 % of the stroke volume.
+  EXPECT_LT(std::abs(V(V.size() - 1) - V(0)), 0.03 * SV)
+      << "V(0) " << V(0) * 1e6 << " mL, V(T) " << V(V.size() - 1) * 1e6 << " mL";
+
+  // Wide physiological ranges on the coarse mesh (docs/models.md s.7 gives the healthy ones).
+  const double EF = SV / EDV;
+  EXPECT_GT(EF, 0.30);
+  EXPECT_LT(EF, 0.80);
+  EXPECT_GT(EDV, 90e-6);
+  EXPECT_LT(EDV, 250e-6);
+  EXPECT_GT(P.maxCoeff(), 80 * 133.322);
+  EXPECT_LT(P.maxCoeff(), 160 * 133.322);
+  // Regional volumes sum to the cavity volume (docs/models.md s.5).
+  const int k = tr.samples() / 2;
+  double sum = 0.0;
+  for (int s = 1; s <= 17; ++s) sum += tr.channel((s < 10 ? "V_seg0" : "V_seg") + std::to_string(s))(k);
+  EXPECT_NEAR(sum, V(k), 1e-9 * V(k));
+}
+
+}  // namespace
+}  // namespace sigmaheart::model::fem
+
