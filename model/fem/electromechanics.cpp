@@ -1,6 +1,7 @@
 #include "model/fem/electromechanics.h"
 
 #include "model/fem/element.h"
+#include "model/fem/eikonal.h"
 #include "model/fem/fibres.h"
 #include "model/fem/solver.h"
 #include "model/lumped/shell.h"
@@ -202,6 +203,15 @@ std::shared_ptr<Geometry> build_geometry(const LeftVentricle3DOptions& o) {
       vt[static_cast<size_t>(v)] = (g->mesh.nodes.row(v).transpose() - g->labels.frame.apex).norm() / o.conduction_velocity;
     const double t0 = *std::min_element(vt.begin(), vt.end());
     for (double& t : vt) t -= t0;
+  } else if (o.activation == ActivationSource::kHealthy || o.activation == ActivationSource::kLbbb) {
+    // The eikonal patterns of docs/models.md s.4.6 on the same mesh, with the fibre frame of each
+    // tetrahedron at its centroid (rule of degree 1); the earliest onset is t = 0.
+    const auto tet_frames = ellipsoid_fibres(g->mesh, shape, fo, 1);
+    const EikonalResult r = solve_eikonal(
+        g->mesh, activation_pattern(g->mesh, tet_frames,
+                                    o.activation == ActivationSource::kHealthy ? ActivationPattern::kHealthy
+                                                                               : ActivationPattern::kLbbb));
+    for (int v = 0; v < g->mesh.n_vertices; ++v) vt[static_cast<size_t>(v)] = r.times(v) - r.earliest;
   }
   g->td = interpolate_vertex_times(*g, vt);
   return g;

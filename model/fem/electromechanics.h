@@ -60,11 +60,18 @@ class BcsPassive final : public Material {
   BcsPassiveParameters p_;
 };
 
-// Where the activation times T_d of the quadrature points come from (until the eikonal solver is
-// wired in): every point at 0 (synchronous, as the lumped sphere), the wall distance from the
-// endocardial apex over a conduction velocity (apex first, base last), or one time per mesh
-// vertex given by the caller (set_activation_times), interpolated with the P1 shape functions.
-enum class ActivationSource { kSynchronous, kApexDistance, kPrescribed };
+// Where the activation times T_d of the quadrature points come from: every point at 0 (synchronous,
+// as the lumped sphere), the wall distance from the endocardial apex over a conduction velocity,
+// the healthy or LBBB eikonal pattern of docs/models.md s.4.6 (config `activation: healthy|lbbb`),
+// or one time per mesh vertex given by the caller (set_activation_times); vertex times are
+// interpolated to the quadrature points with the P1 shape functions.
+enum class ActivationSource {
+  kSynchronous,   // every point at 0 s
+  kApexDistance,  // straight-line distance from the endocardial apex / conduction_velocity
+  kHealthy,       // eikonal solve, healthy pattern (eikonal.h activation_pattern, docs/models.md s.4.6)
+  kLbbb,          // eikonal solve, left bundle branch block pattern (same)
+  kPrescribed,    // per-vertex times from set_activation_times
+};
 
 struct LeftVentricle3DOptions {
   // Mesh of the human-sized truncated ellipsoid (EllipsoidGeometry::human(), docs/models.md s.4.1),

@@ -48,9 +48,11 @@ LeftVentricle3DOptions read_lv3d_options(const OptionReader& node) {
   o.newton_tolerance = node.number("newton_tolerance", o.newton_tolerance);
   o.newton_max_iterations = node.integer("newton_max_iterations", o.newton_max_iterations);
   if (node.has("activation")) {
-    o.activation = node.choice("activation", {"synchronous", "apex_distance"}) == "synchronous"
-                       ? ActivationSource::kSynchronous
-                       : ActivationSource::kApexDistance;
+    const std::string a = node.choice("activation", {"synchronous", "apex_distance", "healthy", "lbbb"});
+    o.activation = a == "synchronous"     ? ActivationSource::kSynchronous
+                   : a == "apex_distance" ? ActivationSource::kApexDistance
+                   : a == "healthy"       ? ActivationSource::kHealthy
+                                          : ActivationSource::kLbbb;
   }
   o.conduction_velocity = node.quantity("conduction_velocity", "m/s", o.conduction_velocity);
   if (node.has("linear_solver"))

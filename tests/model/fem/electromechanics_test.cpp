@@ -172,6 +172,35 @@ TEST(LeftVentricle3D, ActivationTimesComeFromTheChosenSource) {
   EXPECT_GT(far, 0.05);
   EXPECT_LT(far, 0.08);
 
+  // The eikonal patterns (docs/models.md s.4.6) on the same coarse mesh: the healthy wave starts
+  // in the septum and anterior wall and ends within ~100 ms; in LBBB the septum (AHA 2, 3, 8, 9)
+  // is activated from the right and the lateral wall (5, 6, 11, 12) last, later than in health.
+  auto mean_by_region = [](const LeftVentricle3D& sim, std::initializer_list<int> segments) {
+    const auto& t = sim.activation_times();
+    const int nq = sim.n_quadrature_points() / sim.mesh().n_tets();
+    double sum = 0.0;
+    int n = 0;
+    for (int e = 0; e < sim.mesh().n_tets(); ++e) {
+      const int seg = sim.labels().element_segment[static_cast<size_t>(e)];
+      if (std::find(segments.begin(), segments.end(), seg) == segments.end()) continue;
+      for (int q = 0; q < nq; ++q, ++n) sum += t[static_cast<size_t>(e * nq + q)];
+    }
+    return sum / n;
+  };
+  o.activation = ActivationSource::kHealthy;
+  LeftVentricle3D healthy(o);
+  o.activation = ActivationSource::kLbbb;
+  LeftVentricle3D lbbb(o);
+  const double healthy_latest = *std::max_element(healthy.activation_times().begin(), healthy.activation_times().end());
+  const double lbbb_latest = *std::max_element(lbbb.activation_times().begin(), lbbb.activation_times().end());
+  EXPECT_GT(healthy_latest, 0.03);
+  EXPECT_LT(healthy_latest, 0.12);
+  EXPECT_GT(lbbb_latest, healthy_latest + 0.03);
+  const double lbbb_septal = mean_by_region(lbbb, {2, 3, 8, 9});
+  const double lbbb_lateral = mean_by_region(lbbb, {5, 6, 11, 12});
+  EXPECT_GT(lbbb_lateral, lbbb_septal + 0.04) << "septal " << lbbb_septal << " s, lateral " << lbbb_lateral << " s";
+  EXPECT_GT(lbbb_lateral, mean_by_region(healthy, {5, 6, 11, 12}) + 0.03);
+
   // Prescribed per vertex: a linear field is interpolated exactly at the quadrature points.
   std::vector<double> vt(static_cast<size_t>(sync.mesh().n_vertices));
   for (int v = 0; v < sync.mesh().n_vertices; ++v) vt[static_cast<size_t>(v)] = 1.0 + sync.mesh().nodes(v, 2);
