@@ -39,17 +39,19 @@ struct BenchmarkOptions {
 // The published spread of the codes' finest solutions (LandReference), with its figure.
 std::string reference_text(int problem) {
   using R = model::fem::LandReference;
-  const auto range = [](const model::fem::LandRange& r) {
+  const auto range = [](const model::fem::LandRange& r, int digits) {
     std::ostringstream s;
-    s << r.low << ".." << r.high;
+    s << std::fixed << std::setprecision(digits) << r.low << ".." << r.high;
     return s.str();
   };
   std::ostringstream os;
-  if (problem == 1) os << "z of (10, 0.5, 1) " << range(R::kProblem1Deflection) << " mm, fig. 3";
+  if (problem == 1) os << "z of (10, 0.5, 1) " << range(R::kProblem1Deflection, 3) << " mm, fig. 3";
   if (problem == 2)
-    os << "apex z endo " << range(R::kProblem2EndoApex) << ", epi " << range(R::kProblem2EpiApex) << " mm, fig. 6";
+    os << "apex z endo " << range(R::kProblem2EndoApex, 2) << ", epi " << range(R::kProblem2EpiApex, 2)
+       << " mm, fig. 6";
   if (problem == 3)
-    os << "apex z endo " << range(R::kProblem3EndoApex) << ", epi " << range(R::kProblem3EpiApex) << " mm, fig. 9";
+    os << "apex z endo " << range(R::kProblem3EndoApex, 2) << ", epi " << range(R::kProblem3EpiApex, 2)
+       << " mm, fig. 9";
   return os.str();
 }
 
