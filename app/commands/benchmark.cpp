@@ -36,14 +36,22 @@ struct BenchmarkOptions {
 };
 
 #ifdef SIGMAHEART_HAVE_FEM
+// The published spread of the codes' finest solutions (LandReference), with its figure.
 std::string reference_text(int problem) {
   using R = model::fem::LandReference;
+  const auto range = [](const model::fem::LandRange& r, int digits) {
+    std::ostringstream s;
+    s << std::fixed << std::setprecision(digits) << r.low << ".." << r.high;
+    return s.str();
+  };
   std::ostringstream os;
-  if (problem == 1) os << "deflection z " << R::kProblem1Deflection << " mm";
-  if (problem == 2) os << "apex z endo " << R::kProblem2EndoApex << ", epi " << R::kProblem2EpiApex << " mm";
+  if (problem == 1) os << "z of (10, 0.5, 1) " << range(R::kProblem1Deflection, 3) << " mm, fig. 3";
+  if (problem == 2)
+    os << "apex z endo " << range(R::kProblem2EndoApex, 2) << ", epi " << range(R::kProblem2EpiApex, 2)
+       << " mm, fig. 6";
   if (problem == 3)
-    os << "apex z endo " << R::kProblem3EndoApexLow << ".." << R::kProblem3EndoApexHigh << ", epi "
-       << R::kProblem3EpiApexLow << ".." << R::kProblem3EpiApexHigh << " mm";
+    os << "apex z endo " << range(R::kProblem3EndoApex, 2) << ", epi " << range(R::kProblem3EpiApex, 2)
+       << " mm, fig. 9";
   return os.str();
 }
 
@@ -57,7 +65,8 @@ int run_benchmark(const BenchmarkOptions& o, CommandContext& ctx) {
   } catch (const std::invalid_argument& e) {
     throw InputError("--base", 0, 0, e.what());
   }
-  ctx.out << "Land et al. 2015, problem " << o.problem << " (published: " << reference_text(o.problem) << ")\n";
+  ctx.out << "Land et al. 2015, problem " << o.problem << " (spread of the codes' finest solutions: "
+          << reference_text(o.problem) << ")\n";
   ctx.out << std::setw(3) << "K" << std::setw(9) << "tets" << std::setw(10) << "unknowns" << std::setw(13)
           << (o.problem == 1 ? "z_point[mm]" : "endo_z[mm]") << std::setw(13) << (o.problem == 1 ? "" : "epi_z[mm]")
           << std::setw(8) << "newton" << std::setw(10) << "time[s]" << "\n";

@@ -60,6 +60,9 @@ std::unique_ptr<Mechanics> land_mechanics(const LandOptions& o) {
     frames = ellipsoid_fibres(mesh, geo, FibreOptions{90.0, -90.0}, mo.quadrature_degree);
   }
   auto mech = std::make_unique<Mechanics>(mesh, std::move(frames), std::make_unique<Guccione>(gp), mo);
+  // Dirichlet conditions of Land et al. 2015 s.2(c): problem 1 "the left face (x = 0) is fixed in
+  // all directions"; problems 2 and 3 "the base plane (z = 5 mm) is fixed in all directions"
+  // (o.base = kFixed, the default; kSliding is offered only to study the effect of the choice).
   if (o.problem == 1) mech->fix_surface(kClamped);
   else mech->apply_base_condition(kBase, o.base);
   return mech;

@@ -1,5 +1,7 @@
-// Land et al. 2015 on finer meshes (slow tier): the published values within the acceptance
-// tolerances (problem 1: 2 %; problems 2 and 3: 0.3 mm at the apex) and monotone convergence.
+// Land et al. 2015 on the finest meshes that solve in under 10 minutes each on 2 cores (slow tier):
+// each value lies inside the published spread of the codes' finest solutions (LandReference,
+// figs 3, 6 and 9 of the paper) with no added tolerance, and refinement moves it the way the
+// finer meshes say. Measured values and run times: experiments/land-benchmark/README.md.
 #include "model/fem/land_benchmark.h"
 
 #include <gtest/gtest.h>
@@ -18,30 +20,37 @@ LandResult run(int problem, int k) {
   return r;
 }
 
-TEST(LandBenchmarkSlow, Problem1ConvergesMonotonicallyToThePublishedDeflection) {
-  const double d1 = run(1, 1).primary, d2 = run(1, 2).primary, d3 = run(1, 3).primary;
+TEST(LandBenchmarkSlow, Problem1ConvergesMonotonicallyIntoThePublishedSpread) {
+  // K = 1..4: 4.0557, 4.1368, 4.1537, 4.1590 mm; K = 4 takes about a minute.
+  const double d1 = run(1, 1).primary, d2 = run(1, 2).primary, d3 = run(1, 3).primary, d4 = run(1, 4).primary;
   EXPECT_LT(d1, d2);
   EXPECT_LT(d2, d3);
+  EXPECT_LT(d3, d4);
   EXPECT_LT(std::abs(d3 - d2), std::abs(d2 - d1));
-  EXPECT_NEAR(d3, LandReference::kProblem1Deflection, 0.02 * LandReference::kProblem1Deflection);
+  EXPECT_LT(std::abs(d4 - d3), std::abs(d3 - d2));
+  EXPECT_TRUE(LandReference::kProblem1Deflection.contains(d3)) << d3;
+  EXPECT_TRUE(LandReference::kProblem1Deflection.contains(d4)) << d4;
 }
 
-// Distance from x to the interval [lo, hi] (0 inside).
-double distance_to(double x, double lo, double hi) { return x < lo ? lo - x : x > hi ? x - hi : 0.0; }
-
-TEST(LandBenchmarkSlow, Problem2ApexWithinTolerance) {
-  const LandResult r1 = run(2, 1), r2 = run(2, 2);
-  EXPECT_NEAR(r2.primary, LandReference::kProblem2EndoApex, 0.3);
-  EXPECT_NEAR(r2.secondary, LandReference::kProblem2EpiApex, 0.3);
-  // Refinement moves both apices by less than 0.4 mm from K = 1 to K = 2.
-  EXPECT_NEAR(r1.primary, r2.primary, 0.4);
-  EXPECT_NEAR(r1.secondary, r2.secondary, 0.4);
+TEST(LandBenchmarkSlow, Problem2ApicesLieInsideThePublishedSpread) {
+  // K = 2 (17 802 unknowns): -26.719 / -28.270 mm, inside the spread of all ten codes and inside
+  // the spread without LifeV (the paper's largest 3D error, s.4).
+  const LandResult r = run(2, 2);
+  EXPECT_TRUE(LandReference::kProblem2EndoApex.contains(r.primary)) << r.primary;
+  EXPECT_TRUE(LandReference::kProblem2EpiApex.contains(r.secondary)) << r.secondary;
+  EXPECT_TRUE(LandReference::kProblem2EndoApexWithoutLifeV.contains(r.primary)) << r.primary;
+  EXPECT_TRUE(LandReference::kProblem2EpiApexWithoutLifeV.contains(r.secondary)) << r.secondary;
 }
 
-TEST(LandBenchmarkSlow, Problem3ApexWithinTolerance) {
-  const LandResult r = run(3, 2);
-  EXPECT_LE(distance_to(r.primary, LandReference::kProblem3EndoApexLow, LandReference::kProblem3EndoApexHigh), 0.3);
-  EXPECT_LE(distance_to(r.secondary, LandReference::kProblem3EpiApexLow, LandReference::kProblem3EpiApexHigh), 0.3);
+TEST(LandBenchmarkSlow, Problem3ApicesLieInsideThePublishedSpreadAndMoveTowardTheFinestCodes) {
+  // K = 1: -11.608 / -15.734 mm; K = 2: -11.916 / -15.515 mm (about 5 minutes). The finest
+  // codes (2e5 unknowns and more) put the endocardial apex at -12.05..-12.35 mm: refinement must
+  // move ours down, the epicardial one up out of its K = 1 overshoot.
+  const LandResult r1 = run(3, 1), r2 = run(3, 2);
+  EXPECT_TRUE(LandReference::kProblem3EndoApex.contains(r2.primary)) << r2.primary;
+  EXPECT_TRUE(LandReference::kProblem3EpiApex.contains(r2.secondary)) << r2.secondary;
+  EXPECT_LT(r2.primary, r1.primary);
+  EXPECT_GT(r2.secondary, r1.secondary);
 }
 
 }  // namespace
