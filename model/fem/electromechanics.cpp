@@ -25,28 +25,6 @@ namespace circ = circulation;
 
 // ---------------------------------------------------------------------------------------------
 // Passive law.
-namespace {
-
-Matrix9d outer9(const Eigen::Matrix3d& A, const Eigen::Matrix3d& B) {
-  Matrix9d M;
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j)
-      for (int k = 0; k < 3; ++k)
-        for (int l = 0; l < 3; ++l) M(3 * i + j, 3 * k + l) = A(i, j) * B(k, l);
-  return M;
-}
-
-// (A_ik A_jl + A_il A_jk)/2.
-Matrix9d sym_product9(const Eigen::Matrix3d& A) {
-  Matrix9d M;
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j)
-      for (int k = 0; k < 3; ++k)
-        for (int l = 0; l < 3; ++l) M(3 * i + j, 3 * k + l) = 0.5 * (A(i, k) * A(j, l) + A(i, l) * A(j, k));
-  return M;
-}
-
-}  // namespace
 
 std::string BcsPassiveParameters::validate() const {
   auto bad = [](double v) { return !std::isfinite(v) || v < 0; };
@@ -71,27 +49,15 @@ double BcsPassive::energy(const Eigen::Matrix3d& E, const Frame&) const {
 
 void BcsPassive::stress(const Eigen::Matrix3d& E, const Frame&, Eigen::Matrix3d& S, Matrix9d& D) const {
   // W(C) = c1 f1 + c2 f2 + g(f1), f1 = I3^-1/3 I1, f2 = I3^-2/3 I2, g(f) = c_exp (exp(b (f-3)^2) - 1);
-  // S = 2 dW/dC, D = dS/dE = 4 d2W/dC2 (the isochoric invariants as in MooneyRivlin, material.cpp).
-  const Eigen::Matrix3d I = Eigen::Matrix3d::Identity();
-  const Eigen::Matrix3d C = I + 2.0 * E;
-  const Eigen::Matrix3d Ci = C.inverse();
-  const double I1 = C.trace(), I2 = 0.5 * (I1 * I1 - (C * C).trace()), I3 = C.determinant();
-  const double a = std::pow(I3, -1.0 / 3.0), b = a * a;
-  const Eigen::Matrix3d dg = I1 * I - C;  // dI2/dC
-  const Eigen::Matrix3d df1 = a * (I - I1 / 3.0 * Ci);
-  const Eigen::Matrix3d df2 = b * (dg - 2.0 / 3.0 * I2 * Ci);
-  const double Q = a * I1 - 3.0;
+  // S = 2 dW/dC, D = dS/dE = 4 d2W/dC2 (isochoric_invariants, material.h).
+  const IsochoricInvariants f = isochoric_invariants(E);
+  const double Q = f.f1 - 3.0;
   const double ex = p_.c_exp > 0 ? std::exp(p_.b_exp * Q * Q) : 0.0;
   const double g1 = 2.0 * p_.b_exp * p_.c_exp * Q * ex;                            // g'(f1)
   const double g2 = 2.0 * p_.b_exp * p_.c_exp * ex * (1.0 + 2.0 * p_.b_exp * Q * Q);  // g''(f1)
   const double w1 = p_.c1 + g1;
-  S = 2.0 * (w1 * df1 + p_.c2 * df2);
-  const Matrix9d ICi = sym_product9(Ci);
-  const Matrix9d d2f1 = -a / 3.0 * (outer9(I, Ci) + outer9(Ci, I) - I1 / 3.0 * outer9(Ci, Ci) - I1 * ICi);
-  const Matrix9d d2g = outer9(I, I) - sym_product9(I);
-  const Matrix9d d2f2 = -2.0 / 3.0 * b * outer9(dg - 2.0 / 3.0 * I2 * Ci, Ci) +
-                        b * (d2g - 2.0 / 3.0 * outer9(Ci, dg) + 2.0 / 3.0 * I2 * ICi);
-  D = 4.0 * (w1 * d2f1 + p_.c2 * d2f2 + g2 * outer9(df1, df1));
+  S = 2.0 * (w1 * f.df1 + p_.c2 * f.df2);
+  D = 4.0 * (w1 * f.d2f1 + p_.c2 * f.d2f2 + g2 * tensor_outer(f.df1, f.df1));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -375,7 +341,7 @@ namespace {
 // The symmetric identity on 3x3 tensors, (delta_ik delta_jl + delta_il delta_jk)/2: dS = eta/h dE
 // for the viscous stress, in the minor-symmetric form the mechanics' tangent expects.
 const Matrix9d& symmetric_identity() {
-  static const Matrix9d I = sym_product9(Eigen::Matrix3d::Identity());
+  static const Matrix9d I = tensor_sym_product(Eigen::Matrix3d::Identity());
   return I;
 }
 

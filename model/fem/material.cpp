@@ -32,12 +32,13 @@ Eigen::Matrix3d unvec(const Eigen::Matrix<double, 9, 1>& v) {
   return A;
 }
 
-// Outer product of two symmetric tensors as a 9x9 operator.
-Matrix9d outer(const Eigen::Matrix3d& A, const Eigen::Matrix3d& B) { return vec(A) * vec(B).transpose(); }
+}  // namespace
+
+Matrix9d tensor_outer(const Eigen::Matrix3d& A, const Eigen::Matrix3d& B) { return vec(A) * vec(B).transpose(); }
 
 // Symmetrised "A dC B" operator for symmetric A: X -> 1/2 (A X A^T + A X^T A^T) components
 // (A_IK A_JL + A_IL A_JK)/2.
-Matrix9d sym_product(const Eigen::Matrix3d& A) {
+Matrix9d tensor_sym_product(const Eigen::Matrix3d& A) {
   Matrix9d M;
   for (int I = 0; I < 3; ++I)
     for (int J = 0; J < 3; ++J)
@@ -46,7 +47,25 @@ Matrix9d sym_product(const Eigen::Matrix3d& A) {
   return M;
 }
 
-}  // namespace
+IsochoricInvariants isochoric_invariants(const Eigen::Matrix3d& E) {
+  const Eigen::Matrix3d I = Eigen::Matrix3d::Identity();
+  const Eigen::Matrix3d C = I + 2.0 * E;
+  const Eigen::Matrix3d Ci = C.inverse();
+  const double I1 = C.trace(), I2 = 0.5 * (I1 * I1 - (C * C).trace()), I3 = C.determinant();
+  const double a = std::pow(I3, -1.0 / 3.0), b = a * a;
+  const Eigen::Matrix3d dg = I1 * I - C;  // dI2/dC
+  IsochoricInvariants f;
+  f.f1 = a * I1;
+  f.f2 = b * I2;
+  f.df1 = a * (I - I1 / 3.0 * Ci);
+  f.df2 = b * (dg - 2.0 / 3.0 * I2 * Ci);
+  const Matrix9d ICi = tensor_sym_product(Ci);
+  f.d2f1 = -a / 3.0 * (tensor_outer(I, Ci) + tensor_outer(Ci, I) - I1 / 3.0 * tensor_outer(Ci, Ci) - I1 * ICi);
+  const Matrix9d d2g = tensor_outer(I, I) - tensor_sym_product(I);
+  f.d2f2 = -2.0 / 3.0 * b * tensor_outer(dg - 2.0 / 3.0 * I2 * Ci, Ci) +
+           b * (d2g - 2.0 / 3.0 * tensor_outer(Ci, dg) + 2.0 / 3.0 * I2 * ICi);
+  return f;
+}
 
 std::string GuccioneParameters::validate() const {
   if (!(C > 0)) return "Guccione C must be positive";
@@ -102,9 +121,9 @@ void Guccione::stress(const Eigen::Matrix3d& E, const Frame& R, Eigen::Matrix3d&
   stress_full(0.5 * (j23 * C - I), R, Sb, Db);
   const double trS = (Sb.array() * C.array()).sum();
   S = j23 * (Sb - trS / 3.0 * Ci);
-  const Matrix9d Pm = sym_product(I) - vec(Ci) * vec(C).transpose() / 3.0;
-  const Matrix9d Pt = sym_product(Ci) - outer(Ci, Ci) / 3.0;
-  D = Pm * (j23 * j23 * Db) * Pm.transpose() + 2.0 / 3.0 * j23 * trS * Pt - 2.0 / 3.0 * (outer(Ci, S) + outer(S, Ci));
+  const Matrix9d Pm = tensor_sym_product(I) - vec(Ci) * vec(C).transpose() / 3.0;
+  const Matrix9d Pt = tensor_sym_product(Ci) - tensor_outer(Ci, Ci) / 3.0;
+  D = Pm * (j23 * j23 * Db) * Pm.transpose() + 2.0 / 3.0 * j23 * trS * Pt - 2.0 / 3.0 * (tensor_outer(Ci, S) + tensor_outer(S, Ci));
 }
 
 void Guccione::stress_full(const Eigen::Matrix3d& E, const Frame& R, Eigen::Matrix3d& S, Matrix9d& D) const {
@@ -118,7 +137,7 @@ void Guccione::stress_full(const Eigen::Matrix3d& E, const Frame& R, Eigen::Matr
   S = unvec(p_.C * eQ * g);
   // T^T B T treats E_fs and E_sf as independent; the symmetric projection gives the minor-
   // symmetric tangent that acts correctly on any (also non-symmetric) F^T dF.
-  const Matrix9d Psym = sym_product(Eigen::Matrix3d::Identity());
+  const Matrix9d Psym = tensor_sym_product(Eigen::Matrix3d::Identity());
   D = p_.C * eQ * (Psym * T.transpose() * b.asDiagonal() * T * Psym + 2.0 * g * g.transpose());
 }
 
@@ -138,22 +157,10 @@ double MooneyRivlin::energy(const Eigen::Matrix3d& E, const Frame&) const {
 }
 
 void MooneyRivlin::stress(const Eigen::Matrix3d& E, const Frame&, Eigen::Matrix3d& S, Matrix9d& D) const {
-  // W(C) = c1 f1 + c2 f2, f1 = I3^-1/3 I1, f2 = I3^-2/3 I2; S = 2 dW/dC, D = 4 d2W/dC2.
-  const Eigen::Matrix3d I = Eigen::Matrix3d::Identity();
-  const Eigen::Matrix3d C = I + 2.0 * E;
-  const Eigen::Matrix3d Ci = C.inverse();
-  const double I1 = C.trace(), I2 = 0.5 * (I1 * I1 - (C * C).trace()), I3 = C.determinant();
-  const double a = std::pow(I3, -1.0 / 3.0), b = a * a;
-  const Eigen::Matrix3d dg = I1 * I - C;  // dI2/dC
-  const Eigen::Matrix3d df1 = a * (I - I1 / 3.0 * Ci);
-  const Eigen::Matrix3d df2 = b * (dg - 2.0 / 3.0 * I2 * Ci);
-  S = 2.0 * (p_.c1 * df1 + p_.c2 * df2);
-  const Matrix9d ICi = sym_product(Ci);
-  const Matrix9d d2f1 = -a / 3.0 * (outer(I, Ci) + outer(Ci, I) - I1 / 3.0 * outer(Ci, Ci) - I1 * ICi);
-  const Matrix9d d2g = outer(I, I) - sym_product(I);
-  const Matrix9d d2f2 =
-      -2.0 / 3.0 * b * outer(dg - 2.0 / 3.0 * I2 * Ci, Ci) + b * (d2g - 2.0 / 3.0 * outer(Ci, dg) + 2.0 / 3.0 * I2 * ICi);
-  D = 4.0 * (p_.c1 * d2f1 + p_.c2 * d2f2);
+  // W(C) = c1 f1 + c2 f2 (isochoric invariants); S = 2 dW/dC, D = 4 d2W/dC2.
+  const IsochoricInvariants f = isochoric_invariants(E);
+  S = 2.0 * (p_.c1 * f.df1 + p_.c2 * f.df2);
+  D = 4.0 * (p_.c1 * f.d2f1 + p_.c2 * f.d2f2);
 }
 
 }  // namespace sigmaheart::model::fem

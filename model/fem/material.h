@@ -63,6 +63,20 @@ class Guccione final : public Material {
   GuccioneParameters p_;
 };
 
+// Tensor operators on the row-major vec of 3x3 tensors (vec(A)[3I + J] = A(I, J)), shared by the
+// laws here and in electromechanics.cpp.
+Matrix9d tensor_outer(const Eigen::Matrix3d& A, const Eigen::Matrix3d& B);  // A_IJ B_KL
+Matrix9d tensor_sym_product(const Eigen::Matrix3d& A);  // (A_IK A_JL + A_IL A_JK) / 2
+
+// The isochoric invariants of C = I + 2E, f1 = I3^-1/3 I1 and f2 = I3^-2/3 I2, with their
+// derivatives with respect to C: df (3x3) and d2f (9x9, on the vec above).
+struct IsochoricInvariants {
+  double f1 = 0.0, f2 = 0.0;
+  Eigen::Matrix3d df1, df2;
+  Matrix9d d2f1, d2f2;
+};
+IsochoricInvariants isochoric_invariants(const Eigen::Matrix3d& E);
+
 // Mooney-Rivlin on the isochoric invariants (the thesis law, docs/models.md s.4):
 //   W = c1 (J^-2/3 I1 - 3) + c2 (J^-4/3 I2 - 3); the volumetric penalty kappa/2 (J - 1)^2 is the
 // mixed formulation's bulk modulus (MechanicsOptions::bulk_modulus).

@@ -5,6 +5,8 @@
 #include "model/lumped/regional.h"
 #include "tests/model/simulator_contract.h"
 
+#include "tests/model/map_options.h"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -18,45 +20,7 @@ bool contains(const std::vector<std::string>& v, const std::string& s) {
   return std::find(v.begin(), v.end(), s) != v.end();
 }
 
-// Options given as a map (what app/'s config reader does with a YAML section), for tests.
-class MapOptions final : public OptionReader {
- public:
-  explicit MapOptions(std::map<std::string, std::string> values) : values_(std::move(values)) {}
-  bool defined() const override { return true; }
-  bool has(const std::string& key) const override { return values_.count(key) > 0; }
-  bool is_map() const override { return true; }
-  std::string path() const override { return "numerics"; }
-  void check_keys(const std::vector<std::string>& allowed) const override {
-    for (const auto& [k, v] : values_) {
-      if (!contains(allowed, k)) fail(k, "unknown key '" + k + "'");
-    }
-  }
-  double quantity(const std::string& key, const std::string&, double fallback) const override {
-    return has(key) ? std::stod(values_.at(key)) : fallback;
-  }
-  double number(const std::string& key, double fallback) const override {
-    return quantity(key, "1", fallback);
-  }
-  int integer(const std::string& key, int fallback) const override {
-    return has(key) ? std::stoi(values_.at(key)) : fallback;
-  }
-  std::string choice(const std::string& key, const std::vector<std::string>& allowed) const override {
-    if (!has(key) || !contains(allowed, values_.at(key))) fail(key, "bad choice");
-    return values_.at(key);
-  }
-  std::vector<double> quantities(const std::string& key, const std::string&) const override {
-    fail(key, "lists are not supported here");
-  }
-  std::unique_ptr<OptionReader> child(const std::string&) const override {
-    return std::make_unique<NoOptions>();
-  }
-  [[noreturn]] void fail(const std::string& key, const std::string& message) const override {
-    throw std::invalid_argument(key + ": " + message);
-  }
-
- private:
-  std::map<std::string, std::string> values_;
-};
+using sigmaheart::model::testing::MapOptions;
 
 TEST(ModelRegistry, BuiltinModelsAreFoundByNameAndUnknownNamesGiveNull) {
   const ModelRegistry& r = builtin_models();
