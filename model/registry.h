@@ -97,6 +97,20 @@ class OptionReader {
   [[noreturn]] virtual void fail(const std::string& key, const std::string& message) const = 0;
 };
 
+// The time-stepping keys every beat-by-beat model shares (`numerics:` of the lumped models and of
+// lv-3d; docs/models.md): dt [s], min_beats, max_beats, periodic_tolerance, output_every,
+// newton_tolerance, newton_max_iterations, read into the fields of the same names of `o`.
+template <class Options>
+void read_beat_numerics(const OptionReader& node, Options& o) {
+  o.dt = node.quantity("dt", "s", o.dt);
+  o.min_beats = node.integer("min_beats", o.min_beats);
+  o.max_beats = node.integer("max_beats", o.max_beats);
+  o.periodic_tolerance = node.number("periodic_tolerance", o.periodic_tolerance);
+  o.output_every = node.integer("output_every", o.output_every);
+  o.newton_tolerance = node.number("newton_tolerance", o.newton_tolerance);
+  o.newton_max_iterations = node.integer("newton_max_iterations", o.newton_max_iterations);
+}
+
 // An absent section: every value is its fallback, fail() throws std::invalid_argument. What a
 // model is built with when nothing is configured (tests, `builtin_models()` defaults).
 class NoOptions final : public OptionReader {

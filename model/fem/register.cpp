@@ -38,15 +38,9 @@ LeftVentricle3DOptions read_lv3d_options(const OptionReader& node) {
   o.fibre_endo_deg = node.number("fibre_endo", o.fibre_endo_deg);
   o.fibre_epi_deg = node.number("fibre_epi", o.fibre_epi_deg);
   if (node.has("base")) o.base = parse_base_condition(node.choice("base", {"sliding", "fixed"}));
-  o.dt = node.quantity("dt", "s", o.dt);
+  read_beat_numerics(node, o);
   o.max_step_cuts = node.integer("max_step_cuts", o.max_step_cuts);
   o.inflation_steps = node.integer("inflation_steps", o.inflation_steps);
-  o.min_beats = node.integer("min_beats", o.min_beats);
-  o.max_beats = node.integer("max_beats", o.max_beats);
-  o.periodic_tolerance = node.number("periodic_tolerance", o.periodic_tolerance);
-  o.output_every = node.integer("output_every", o.output_every);
-  o.newton_tolerance = node.number("newton_tolerance", o.newton_tolerance);
-  o.newton_max_iterations = node.integer("newton_max_iterations", o.newton_max_iterations);
   if (node.has("activation")) {
     const std::string a = node.choice("activation", {"synchronous", "apex_distance", "healthy", "lbbb"});
     o.activation = a == "synchronous"     ? ActivationSource::kSynchronous

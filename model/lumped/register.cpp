@@ -10,13 +10,7 @@ SphereOptions read_sphere_options(const OptionReader& node, const std::vector<st
                                    "output_every", "newton_tolerance", "newton_max_iterations"};
   keys.insert(keys.end(), extra.begin(), extra.end());
   node.check_keys(keys);
-  o.dt = node.quantity("dt", "s", o.dt);
-  o.min_beats = node.integer("min_beats", o.min_beats);
-  o.max_beats = node.integer("max_beats", o.max_beats);
-  o.periodic_tolerance = node.number("periodic_tolerance", o.periodic_tolerance);
-  o.output_every = node.integer("output_every", o.output_every);
-  o.newton_tolerance = node.number("newton_tolerance", o.newton_tolerance);
-  o.newton_max_iterations = node.integer("newton_max_iterations", o.newton_max_iterations);
+  read_beat_numerics(node, o);
   if (const std::string msg = o.validate(); !msg.empty()) {
     // The messages start with the field name ("dt = -1 s must lie in (0, 0.05]"): point there.
     node.fail(msg.substr(0, msg.find_first_of(" =")), node.path() + ": " + msg);
