@@ -94,7 +94,11 @@ ShootingResult find_periodic_state(const VectorXd& x0, const BeatMap& beat,
   bool free_step = true;
   bool search_ray = false;  // after a failed watch: find the root along the Newton ray
   constexpr int kKinkJumps = 4;  // jumps over a kink per solve (each costs one beat and a watch)
-  int kink_jumps = 0;
+  // Only after this many ray searches in a row closed on a kink: jumping at the first one made
+  // the 12-parameter foreign calibration fail 412 members instead of 198 (members that creep to
+  // the tolerance within max_beats lost their beats to the watch), 5446 runs instead of 5011.
+  constexpr int kPoorRays = 2;
+  int kink_jumps = 0, poor_rays = 0;
 
   // The root of phi(lambda) = G(x + lambda S dz) . G(x) / |G(x)|^2 on the Newton ray, bracketed by
   // phi(0) = 1 and an overshooting full step (phi(1) < 0), by the Illinois variant of regula falsi
@@ -152,10 +156,12 @@ ShootingResult find_periodic_state(const VectorXd& x0, const BeatMap& beat,
     // A bracket that closed where |G| stays large (above half its value at x) is a kink, not a
     // root: G is flat on the near side (the Jacobian there sees no valve opening) and steep on the
     // far side. Newton from the steep side lands on the root; from the flat side it only comes
-    // back to the kink (regional census points 401, 889, 2256, 2958 crept at |G| ~ 2e-5 until the
-    // beats ran out). So the iterate jumps to the far side, ten finite-difference steps past the
+    // back to the kink (regional census points 401, 889, 2256 crept at |G| ~ 2e-5 until the beats
+    // ran out). So the iterate jumps to the far side, ten finite-difference steps past the
     // bracket, and the watchdog keeps the best point of the ray to come back to.
-    if (overshoot && best_norm > 0.5 * r_norm && watching == 0 && kink_jumps < kKinkJumps &&
+    const bool poor = overshoot && best_norm > 0.5 * r_norm;
+    poor_rays = poor ? poor_rays + 1 : 0;
+    if (poor && poor_rays >= kPoorRays && watching == 0 && kink_jumps < kKinkJumps &&
         res.beats < o.max_beats) {
       ++kink_jumps;
       const double lam_far = std::min(1.0, hi + 10.0 * o.fd_step / max_abs(dz));

@@ -19,17 +19,17 @@ TEST(SIGMAHEART_CENSUS_SUITE, RegionalGivesABeatAtEverySobolPointOfItsBox) {
 }
 
 // Points of the 4096-point censuses whose shooting once stalled next to a valve kink (docs/models.md
-// s.2.1): sphere 677 (scales inflated by a far trial beat), regional 401, 889, 2256, 2958 (Newton
-// from the flat side of the kink crept at |G| ~ 2e-5 until the 400 beats ran out).
+// s.2.1): sphere 677 (scales inflated by a far trial beat), regional 401, 889, 2256 (Newton from
+// the flat side of the kink crept at |G| ~ 2e-5 until the 400 beats ran out).
 TEST(SIGMAHEART_CENSUS_SUITE, PointsThatStalledAtAValveKinkArePeriodic) {
   LumpedSphere sphere;
   const Census s = census(sphere, 4096, {677});
   EXPECT_EQ(s.points, 1);
   expect_no_failure(s, "sphere, census point 677");
   RegionalVentricle regional(five_patches());
-  const Census r = census(regional, 4096, {401, 889, 2256, 2958});
-  EXPECT_EQ(r.points, 4);
-  expect_no_failure(r, "regional, census points 401 889 2256 2958");
+  const Census r = census(regional, 4096, {401, 889, 2256});
+  EXPECT_EQ(r.points, 3);
+  expect_no_failure(r, "regional, census points 401 889 2256");
 }
 
 }  // namespace
