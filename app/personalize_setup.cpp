@@ -146,13 +146,58 @@ void parse_observations(const Config& config, const ConfigNode& obs, Personalize
   if (!(tr.times(0) >= 0.0)) file_node.fail("frame times must start at or after 0");
 }
 
-void parse_estimate(const Config& config, const ConfigNode& est, PersonalizeProblem& out) {
-  const model::ParameterSpace& space = config.simulator.parameters;
-  if (!est.is_map() || est.size() == 0) est.fail("expected a map of parameter -> {prior, spread, ...}");
+// Zones (`<family>: {zones: {name: [segments]}}`) tie segments of a family to one parameter
+// `<family>_<name>`; they change the parameter space the other keys are read against.
+void parse_zones(const Config& config, const ConfigNode& est, PersonalizeProblem& out) {
+  const model::ParameterSpace& inner = config.simulator.parameters;
   for (const auto& key : est.keys()) {
     const ConfigNode node = est[key];
-    node.check_keys({"segments", "prior", "spread", "transform", "bounds"});
-    if (node.has("segments")) {
+    if (!node.is_map() || !node.has("zones")) continue;
+    if (node.has("segments")) node.fail("give either segments: or zones:, not both");
+    const std::vector<int> members = regional_family(inner, key);
+    if (members.empty()) {
+      throw InputError(est.key_location(key), "'" + key + "' is not a per-segment parameter family of " +
+                                                  config.simulator.model + "; zones: needs one (e.g. sigma0)");
+    }
+    std::vector<int> available;
+    for (int i : members) available.push_back(inner[i].segment);
+    const ConfigNode zones = node["zones"];
+    if (!zones.is_map() || zones.size() == 0) zones.fail("expected a map of zone name -> list of segments");
+    std::vector<int> used;
+    for (const auto& name : zones.keys()) {
+      model::ParameterZone zone{key + "_" + name, {}};
+      for (int s : parse_segments(zones[name], available)) {
+        for (int u : used) {
+          if (u == s) zones[name].fail("segment " + std::to_string(s) + " is already in another zone");
+        }
+        used.push_back(s);
+        zone.members.push_back(*inner.find(inner[members.front()].family, s));
+      }
+      out.zones.push_back(std::move(zone));
+    }
+  }
+  try {
+    out.space = model::ZonedSimulator::zoned_space(inner, out.zones);
+  } catch (const std::invalid_argument& e) {
+    est.fail(e.what());
+  }
+}
+
+void parse_estimate(const Config& config, const ConfigNode& est, PersonalizeProblem& out) {
+  if (!est.is_map() || est.size() == 0) est.fail("expected a map of parameter -> {prior, spread, ...}");
+  parse_zones(config, est, out);
+  const model::ParameterSpace& space = out.space;
+  for (const auto& key : est.keys()) {
+    const ConfigNode node = est[key];
+    node.check_keys({"segments", "zones", "prior", "spread", "transform", "bounds"});
+    if (node.has("zones")) {
+      for (const auto& zone_name : node["zones"].keys()) {
+        const int idx = *space.index(key + "_" + zone_name);
+        out.prior.parameters.push_back(bounded_by_the_model(parse_estimated_parameter(space[idx], node), space[idx]));
+        out.segments.push_back(0);
+        out.families.push_back(key);
+      }
+    } else if (node.has("segments")) {
       const std::vector<int> members = regional_family(space, key);
       if (members.empty()) {
         throw InputError(est.key_location(key), "'" + key + "' is not a per-segment parameter family of " +
@@ -278,7 +323,7 @@ PersonalizeProblem parse_personalize(const Config& config) {
   parse_observations(config, sec.require_child("observations"), out);
   parse_estimate(config, sec.require_child("estimate"), out);
   parse_filter(sec["filter"], out);
-  out.filter.base_theta = space.nominal();
+  out.filter.base_theta = out.space.nominal();
   const ConfigNode file_node = sec["observations"]["file"];
   if (const std::string e = out.data.validate(); !e.empty()) file_node.fail(e);
   const auto& times = out.file_times;
@@ -286,7 +331,7 @@ PersonalizeProblem parse_personalize(const Config& config) {
     file_node.fail("the frames span more than one heart period (" + std::to_string(out.period) +
                    " s); repeated passes need one beat");
   }
-  if (const ConfigNode truth = sec["truth"]; truth.defined()) parse_truth(space, truth, out);
+  if (const ConfigNode truth = sec["truth"]; truth.defined()) parse_truth(out.space, truth, out);
   return out;
 }
 

@@ -11,6 +11,8 @@
 //       start_beats: 8           # file time 0 = this many beats after the model's initial state
 //     estimate:                  # per-segment families and global parameters
 //       sigma0: {segments: all, prior: 5.3e4, spread: 50 %, transform: log}
+//       # or zones: one estimated parameter <key>_<zone> per zone sets all its segments
+//       # (model/zoned_simulator.h), e.g. {zones: {lad: [1, 2, 7, 8, 13, 14, 17], rest: [3, 4]}}
 //       R_p: {spread: 20 %}      # a global parameter (no segments:)
 //     filter:
 //       beats: 16                # passes over the measured beat (split: at most)
@@ -38,6 +40,7 @@
 #include "app/config.h"
 #include "estimation/prior.h"
 #include "estimation/roukf/roukf.h"
+#include "model/zoned_simulator.h"
 
 #include <Eigen/Core>
 
@@ -63,6 +66,8 @@ struct PersonalizeProblem {
   std::string spin_up = "per-member";
   std::vector<int> segments;              // per estimated parameter: 1-based segment, 0 = global
   std::vector<std::string> families;      // per estimated parameter: the config key
+  std::vector<model::ParameterZone> zones; // tied segments (empty: none); wrap the simulator
+  model::ParameterSpace space;            // the simulator's, zoned when zones are given
 };
 
 // Every problem is an InputError at the offending key (file:line:column).

@@ -45,13 +45,18 @@ int run_personalize(const StudyOptions& o, CommandContext& ctx) {
   PersonalizeProblem problem = parse_personalize(config);
   StudyRun study(o, ctx, config, "personalize");
 
-  std::unique_ptr<model::Simulator> simulator = config.simulator.make();
-  const auto* steppable = dynamic_cast<const model::SteppableSimulator*>(simulator.get());
-  if (steppable == nullptr) {
+  std::unique_ptr<model::Simulator> made = config.simulator.make();
+  auto* raw = dynamic_cast<model::SteppableSimulator*>(made.get());
+  if (raw == nullptr) {
     config.file.root()["simulator"]["model"].fail(
         "model " + config.simulator.model + " cannot be advanced step by step; personalize needs a "
-        "steppable simulator (lumped-regional, lumped-sphere)");
+        "steppable simulator (lumped-regional, lumped-sphere, lv-3d)");
   }
+  made.release();
+  std::unique_ptr<model::SteppableSimulator> simulator(raw);
+  // Tied segments: the filter sees one parameter per zone (model/zoned_simulator.h).
+  if (!problem.zones.empty()) simulator = std::make_unique<model::ZonedSimulator>(std::move(simulator), problem.zones);
+  const model::SteppableSimulator* steppable = simulator.get();
   estimation::RoukfOptions& filter = problem.filter;
   const int threads = set_up_study_ensemble(o, ctx, filter.ensemble);
   study.attach(filter.ensemble);
@@ -78,7 +83,7 @@ int run_personalize(const StudyOptions& o, CommandContext& ctx) {
     io::RoukfResults results;
     results.problem = &problem;
     results.summary = &summary;
-    results.space = &config.simulator.parameters;
+    results.space = &problem.space;
     results.threads = threads;
     fill_provenance(prov, config, ctx, "personalize", threads, ctx.ranks);
     io::write_roukf_h5(output, results, prov);

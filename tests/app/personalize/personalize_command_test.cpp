@@ -101,6 +101,46 @@ TEST(PersonalizeCommand, AFamilyIsNamedByItsTagOrByItsParametersStem) {
   }
 }
 
+// Zones (docs/estimation.md s.4.6): one parameter per zone, 3 members instead of 18; one pass
+// already separates the infarcted LAD territory from the rest.
+TEST(PersonalizeCommand, ZonesTieTheirSegmentsToOneParameterEach) {
+  const auto dir = scratch_dir();
+  const std::string json = (dir / "zones.json").string();
+  const auto cfg = write_file(
+      dir / "zones.yaml",
+      config_with("sigma0: {zones: {lad: [1, 2, 7, 8, 13, 14, 17], rest: [3, 4, 5, 6, 9, 10, 11, 12, 15, 16]}, "
+                  "prior: 5.3e4, spread: 50 %, transform: log}") +
+          "  truth: {sigma0_lad: 21.2 kPa, sigma0_rest: 53 kPa}\n");
+  const CliRun r = cli({"personalize", cfg.string(), "-o", (dir / "zones.h5").string(), "--summary", json,
+                        "--threads", "2"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(read_file(json));
+  EXPECT_EQ(j["members"], 3);
+  EXPECT_FALSE(j["parameters"].contains("sigma0_01"));
+  const double lad = j["parameters"]["sigma0_lad"]["value"].get<double>();
+  const double rest = j["parameters"]["sigma0_rest"]["value"].get<double>();
+  EXPECT_LT(lad / kPrior, 0.7);
+  EXPECT_GT(rest / kPrior, 0.7);
+  EXPECT_NEAR(j["parameters"]["sigma0_lad"]["truth"].get<double>(), 21200.0, 1e-6);
+}
+
+TEST(PersonalizeCommand, BadZonesAreReportedAtTheirLineAndColumn) {
+  const auto dir = scratch_dir();
+  for (const auto& [estimate, what] :
+       {std::pair<std::string, std::string>{"sigma0: {zones: {a: [1, 2], b: [2, 3]}}", "already in another zone"},
+        {"sigma0: {zones: {a: [1, 18]}}", "segment 18 outside 1..17"},
+        {"sigma0: {segments: all, zones: {a: [1]}}", "either segments: or zones:"},
+        {"R_p: {zones: {a: [1]}}", "not a per-segment parameter family"},
+        {"sigma0: {zones: [1, 2]}", "expected a map of zone name"}}) {
+    const auto cfg = write_file(dir / "bad.yaml", config_with(estimate));
+    const CliRun r = cli({"personalize", cfg.string(), "-o", (dir / "x.h5").string()});
+    EXPECT_EQ(r.code, 2) << estimate;
+    EXPECT_NE(r.err.find("bad.yaml:11:"), std::string::npos) << estimate << ": " << r.err;
+    EXPECT_NE(r.err.find(what), std::string::npos) << estimate << ": " << r.err;
+    EXPECT_FALSE(std::filesystem::exists(dir / "x.h5"));
+  }
+}
+
 TEST(PersonalizeCommand, AnAbortedFilterExitsOneAndKeepsTheStepsDone) {
   const auto dir = scratch_dir();
   // One Newton iteration per step cannot converge: every member fails in the first prediction.
