@@ -3,7 +3,11 @@
 - <stem>-pv-loop.png: the pressure-volume loop coloured by cardiac phase, end-diastole and
   end-systole marked, the summary indices (EDV, ESV, EF, P_max) inside the loop;
 - <stem>-curves.png: LV volume, and LV, aortic and atrial pressure over the periodic beat with the
-  phases shaded.
+  phases shaded;
+- <stem>-regional-volumes.png (models with channels V_seg01..V_segNN: lumped-regional, lv-3d): the
+  regional cavity volumes over the beat, one panel per AHA level (basal 1-6, mid 7-12, apical
+  13-16, apex 17), and the bull's-eye of the regional ejection fraction (max - min) / max of each
+  segment's volume.
 """
 from __future__ import annotations
 
@@ -12,6 +16,7 @@ from typing import List
 import numpy as np
 from matplotlib.patches import Patch
 
+import sigmaplot_regional
 from sigmaplot_common import STYLE, curve, plt, provenance_note, save, text, title_of
 
 # The phase channel of the lumped and 3D simulators (model/lumped/sphere.cpp, channel "phase").
@@ -60,7 +65,53 @@ def plot_simulate(f, out_dir: str, stem: str) -> List[str]:
         if volume is not None and p_lv is not None:
             written.append(save(pv_loop(f, volume, p_lv, phase), out_dir, stem, "pv-loop"))
         written.append(save(curves(f, g, time, time_unit, phase), out_dir, stem, "curves"))
+        segments = sorted(int(k[5:]) for k in g.keys() if k.startswith("V_seg") and k[5:].isdigit())
+        if segments:
+            written.append(save(regional_volumes(f, g, time, time_unit, phase, segments), out_dir, stem,
+                                "regional-volumes"))
     return written
+
+
+# AHA levels (Cerqueira et al. 2002) for the panels of the regional volume figure.
+LEVELS = [("basal", range(1, 7)), ("mid-cavity", range(7, 13)), ("apical", range(13, 17)), ("apex", range(17, 18))]
+
+
+def regional_volumes(f, g, time, time_unit, phase, segments):
+    """One panel per AHA level with its segments' volume curves, then the regional-EF bull's-eye."""
+    fig = plt.figure(figsize=(13, 6.5))
+    grid = fig.add_gridspec(2, 3, width_ratios=[1, 1, 1.1])
+    panels = [fig.add_subplot(grid[r, c]) for r, c in ((0, 0), (0, 1), (1, 0), (1, 1))]
+    ax_eye = fig.add_subplot(grid[:, 2])
+    colors = plt.get_cmap("tab10")
+    regional_ef = np.full(17, np.nan)
+    unit = ""
+    for ax, (level, members) in zip(panels, LEVELS):
+        if phase is not None:
+            shade_phases(ax, time, phase[0])
+        for j, s in enumerate(m for m in members if m in segments):
+            v, unit = curve(g, f"V_seg{s:02d}")
+            name = sigmaplot_regional.AHA_NAMES[s - 1] if len(segments) == 17 else f"segment {s}"
+            ax.plot(time, v, color=colors(j), lw=1.6, label=f"{s}: {name}")
+            if np.max(v) > 0:
+                regional_ef[s - 1] = 100.0 * (np.max(v) - np.min(v)) / np.max(v)
+        ax.set_title(f"{level} segments", fontsize=9)
+        ax.set_ylabel(f"volume [{unit}]", fontsize=8)
+        ax.set_xlim(time[0], time[-1])
+        ax.tick_params(labelsize=7)
+        ax.legend(fontsize=6.5, loc="lower left")
+    for ax in panels[2:]:
+        ax.set_xlabel(f"time in beat [{time_unit}]", fontsize=8)
+    if len(segments) == 17:
+        finite = regional_ef[np.isfinite(regional_ef)]
+        lo, hi = (float(np.min(finite)), float(np.max(finite))) if finite.size else (0.0, 1.0)
+        sigmaplot_regional.bullseye(ax_eye, regional_ef, "regional ejection fraction", "viridis", lo,
+                                    max(hi, lo + 1e-9), "(max - min) / max of V_seg [%]")
+    else:
+        ax_eye.set_visible(False)
+    fig.suptitle(title_of(f, "Regional cavity volumes over the periodic beat"))
+    fig.text(0.99, 0.0, provenance_note(f), ha="right", va="bottom", fontsize=6, color="0.5")
+    fig.tight_layout()
+    return fig
 
 
 def pv_loop(f, volume, pressure, phase):

@@ -176,6 +176,7 @@ struct SimulateOptions {
   std::filesystem::path output;   // empty: default_output_path(config, "simulate")
   std::filesystem::path csv;      // empty: no CSV
   std::filesystem::path summary;  // empty: no JSON summary
+  std::filesystem::path vtu;      // empty: no ParaView time series (3D models only)
   std::vector<std::string> overrides;            // "key=value"
 };
 int run_simulate(const SimulateOptions& options, CommandContext& ctx);

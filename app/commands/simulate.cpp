@@ -3,8 +3,13 @@
 #include "app/commands/commands.h"
 #include "app/config.h"
 #include "app/errors.h"
+#include "app/io/atomic_file.h"
+#include "app/io/mesh_io.h"
 #include "app/io/results.h"
 #include "observers/global_indices.h"
+#ifdef SIGMAHEART_HAVE_FEM
+#include "model/fem/electromechanics.h"
+#endif
 
 #include <omp.h>
 #include <spdlog/spdlog.h>
@@ -48,6 +53,44 @@ std::vector<io::Indicator> simulate_indicators(const model::RunResult& result,
   return out;
 }
 
+// The states of the last beat of a 3D run, for its ParaView time series, and progress lines per
+// beat (a 3D beat takes tens of seconds).
+struct BeatRecorder {
+  bool keep_states = false;
+  int beat = 0;
+  std::vector<std::pair<double, model::State>> states;  // (time in beat [s], state)
+};
+
+#ifdef SIGMAHEART_HAVE_FEM
+model::fem::LeftVentricle3D* as_3d(model::Simulator* s) { return dynamic_cast<model::fem::LeftVentricle3D*>(s); }
+#endif
+
+// One binary VTU per kept step of the last beat, `<name>_NNNN.vtu`, and `<name>.pvd` with the time
+// in the beat [s]; every file is written to a temporary name and renamed (app/io/atomic_file.h).
+// Returns the .pvd path.
+std::filesystem::path write_beat_vtu(model::Simulator* simulator, const BeatRecorder& rec,
+                                     const std::filesystem::path& dir, const std::string& name) {
+#ifdef SIGMAHEART_HAVE_FEM
+  auto* lv = as_3d(simulator);
+  std::filesystem::create_directories(dir);
+  std::vector<std::pair<double, std::string>> steps;
+  for (size_t i = 0; i < rec.states.size(); ++i) {
+    char file[32];
+    std::snprintf(file, sizeof file, "_%04zu.vtu", i);
+    const std::string fname = name + file;
+    const model::fem::VtuDocument doc = lv->field_document(rec.states[i].second);
+    io::write_text_file(dir / fname, [&](std::ostream& os) { doc.write(os); });
+    steps.emplace_back(rec.states[i].first, fname);
+  }
+  const std::filesystem::path pvd = dir / (name + ".pvd");
+  io::write_pvd(pvd.string(), steps);
+  return pvd;
+#else
+  (void)simulator, (void)rec, (void)dir, (void)name;
+  throw RunFailure("sigmaheart was built without model/fem: no ParaView output");
+#endif
+}
+
 }  // namespace
 
 int run_simulate(const SimulateOptions& o, CommandContext& ctx) {
@@ -55,11 +98,37 @@ int run_simulate(const SimulateOptions& o, CommandContext& ctx) {
   const Config config = load_config(o.config, o.overrides, *ctx.models, *ctx.sections);
   const std::filesystem::path output = !o.output.empty() ? o.output : default_output_path(o.config, "simulate");
   check_outputs({{"-o", output}, {"--csv", o.csv}, {"--summary", o.summary}}, {o.config});
+  if (!o.vtu.empty()) {
+    std::error_code ec;
+    if (std::filesystem::exists(o.vtu, ec) && !std::filesystem::is_directory(o.vtu, ec))
+      throw InputError("--vtu " + o.vtu.string(), 0, 0, "is a file; expected a directory for the .vtu/.pvd files");
+    std::filesystem::create_directories(o.vtu, ec);
+    if (ec) throw InputError("--vtu " + o.vtu.string(), 0, 0, "cannot create the directory: " + ec.message());
+  }
 
   auto simulator = config.simulator.make();
   const Eigen::VectorXd theta = config.simulator.parameters.nominal();
   spdlog::info("simulating '{}' with {} ({} parameters)", config.name, simulator->name(),
                theta.size());
+  BeatRecorder rec;
+  rec.keep_states = !o.vtu.empty();
+#ifdef SIGMAHEART_HAVE_FEM
+  if (auto* lv = as_3d(simulator.get())) {
+    lv->set_beat_observer([&rec](int beat, double t, const model::State& s) {
+      if (beat != rec.beat) {
+        spdlog::info("beat {} ...", beat);
+        rec.beat = beat;
+        rec.states.clear();
+      }
+      if (rec.keep_states) rec.states.emplace_back(t, s);
+    });
+  } else if (rec.keep_states) {
+    throw InputError("--vtu", 0, 0, "model '" + simulator->name() +
+                                        "' has no 3D fields; ParaView output needs `model: lv-3d`");
+  }
+#else
+  if (rec.keep_states) throw InputError("--vtu", 0, 0, "sigmaheart was built without model/fem (no 3D fields)");
+#endif
   const model::RunResult result = simulator->run(theta);
   const auto code = result.status.code;
   if (code == model::StatusCode::kOutOfBounds || code == model::StatusCode::kInvalidArgument) {
@@ -98,6 +167,8 @@ int run_simulate(const SimulateOptions& o, CommandContext& ctx) {
   }
   if (!o.csv.empty()) io::write_trajectory_csv(o.csv, result.trajectory);
   if (!o.summary.empty()) io::write_indicators_json(o.summary, indicators, &prov);
+  std::filesystem::path pvd;
+  if (rec.keep_states) pvd = write_beat_vtu(simulator.get(), rec, o.vtu, config.name);
 
   ctx.out << config.name << " (" << simulator->name() << "): periodic after " << result.info.beats
           << " beats\n"
@@ -105,6 +176,8 @@ int run_simulate(const SimulateOptions& o, CommandContext& ctx) {
   ctx.out << "wrote " << output.string() << "\n";
   if (!o.csv.empty()) ctx.out << "wrote " << o.csv.string() << "\n";
   if (!o.summary.empty()) ctx.out << "wrote " << o.summary.string() << "\n";
+  if (!pvd.empty())
+    ctx.out << "wrote " << rec.states.size() << " ParaView steps of the last beat, " << pvd.string() << "\n";
   return kExitOk;
 }
 
@@ -115,6 +188,9 @@ void register_simulate(CLI::App& app, CommandContext& ctx) {
   sub->add_option("-o,--output", opts->output, "Results file (HDF5); default results/<config>-simulate.h5");
   sub->add_option("--csv", opts->csv, "Also write the curves as CSV (header 'name [unit]')");
   sub->add_option("--summary", opts->summary, "Also write the indices as JSON");
+  sub->add_option("--vtu", opts->vtu,
+                  "3D models: write the last beat as binary VTU files plus a .pvd index into this directory "
+                  "(ParaView: displacement, activation time, active stress, fibre strain, AHA segments)");
   add_set_option(*sub, opts->overrides);
   sub->callback([opts, &ctx] { ctx.run = [opts, &ctx] { return run_simulate(*opts, ctx); }; });
 }

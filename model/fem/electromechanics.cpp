@@ -665,6 +665,45 @@ Status LeftVentricle3D::check_theta(const Eigen::Ref<const Eigen::VectorXd>& the
   return Status::Ok();
 }
 
+VtuDocument LeftVentricle3D::field_document(const model::State& state) {
+  if (state.x.size() != impl_->state_size())
+    throw std::invalid_argument("field_document: the state has " + std::to_string(state.x.size()) +
+                                " entries, expected " + std::to_string(impl_->state_size()));
+  const Geometry& g = *impl_->geo;
+  const Unknowns k = impl_->unpack_state(state.x);
+  VtuDocument doc(g.mesh);
+  doc.set_points(impl_->positions(k.ms.u));
+  doc.add_point_data("displacement", k.ms.u, 3);
+  doc.add_vertex_data("hydrostatic_pressure", k.ms.p);
+  // The strain is kinematic: any passive law of the mechanics gives the same E.
+  std::vector<Eigen::Matrix3d> E;
+  const bool have_strain = impl_->mech && impl_->strains(*impl_->mech, k.ms, E);
+  const int n_tets = g.mesh.n_tets(), nqp = g.nqp;
+  Eigen::VectorXd td(n_tets), tau(n_tets), eff(n_tets), fibre(3 * static_cast<Eigen::Index>(n_tets));
+  for (int e = 0; e < n_tets; ++e) {
+    double t_sum = 0.0, tau_sum = 0.0, e_sum = 0.0;
+    Eigen::Vector3d f_sum = Eigen::Vector3d::Zero();
+    for (int q = 0; q < nqp; ++q) {
+      const size_t i = static_cast<size_t>(e * nqp + q);
+      const Eigen::Vector3d f = g.frames[i].col(0);
+      t_sum += g.td[i];
+      tau_sum += k.act[i].tau_c;
+      if (have_strain) e_sum += f.dot(E[i] * f);
+      f_sum += f;
+    }
+    td(e) = t_sum / nqp;
+    tau(e) = tau_sum / nqp;
+    eff(e) = have_strain ? e_sum / nqp : std::numeric_limits<double>::quiet_NaN();
+    fibre.segment<3>(3 * e) = f_sum.normalized();
+  }
+  doc.add_cell_data("activation_time", td);
+  doc.add_cell_data("active_stress", tau);
+  doc.add_cell_data("fibre_strain", eff);
+  doc.add_cell_data("fibre", fibre, 3);
+  doc.add_cell_labels("aha_segment", g.labels.element_segment);
+  return doc;
+}
+
 model::State LeftVentricle3D::initial_state(const Eigen::Ref<const Eigen::VectorXd>& theta) {
   model::State st;
   st.time = 0.0;
@@ -839,6 +878,7 @@ RunResult LeftVentricle3D::run_checked(const Eigen::Ref<const Eigen::VectorXd>& 
     const model::State start = s;
     std::vector<double> times{0.0};
     std::vector<Eigen::VectorXd> rows{sample(s, theta)};
+    if (observer_) observer_(beat, 0.0, s);
     int k = 0;
     while (s.time < t_beat_end) {
       const double t1 = shell::next_time(s.time, t_beat_end, options_.dt, T);
@@ -848,6 +888,7 @@ RunResult LeftVentricle3D::run_checked(const Eigen::Ref<const Eigen::VectorXd>& 
       if (k % options_.output_every == 0 || t1 >= t_beat_end) {
         times.push_back(std::min(t1 - t_begin, T));
         rows.push_back(sample(s, theta));
+        if (observer_) observer_(beat, times.back(), s);
       }
     }
     result.info.beats = beat;

@@ -25,10 +25,12 @@
 #include "model/fem/material.h"
 #include "model/fem/mechanics.h"
 #include "model/fem/mesh.h"
+#include "model/fem/vtk_output.h"
 #include "model/simulator.h"
 
 #include <Eigen/Core>
 
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -141,6 +143,21 @@ class LeftVentricle3D final : public SteppableSimulator {
   // Activation time of every quadrature point (element-major) [s].
   const std::vector<double>& activation_times() const;
 
+  // Observer of run(): called at t = 0 of every beat and after every kept output step (the rows
+  // of the returned trajectory) with the beat number (from 1), the time in the beat [s] and the
+  // state (layout of state_layout()). `sigmaheart simulate --vtu` keeps the states of the last,
+  // periodic beat this way. Clones do not inherit the observer.
+  using BeatObserver = std::function<void(int beat, double t_in_beat, const model::State& state)>;
+  void set_beat_observer(BeatObserver observer) { observer_ = std::move(observer); }
+
+  // ParaView document of a state (docs/models.md s.4.7-4.8): the deformed nodes, point data
+  // `displacement` [m] and `hydrostatic_pressure` [Pa] (P1, mid-edge nodes the mean of their
+  // edge ends), cell data (means over the quadrature points of each tetrahedron)
+  // `activation_time` [s], `active_stress` (BCS tau_c along the fibre) [Pa], `fibre_strain`
+  // (Green-Lagrange E_ff) [-], `fibre` (unit vector, reference configuration) and the labels
+  // `aha_segment`. Throws std::invalid_argument when the state does not have state_layout()'s size.
+  VtuDocument field_document(const model::State& state);
+
   const Mesh& mesh() const;
   const AhaLabels& labels() const;
   const LeftVentricle3DOptions& options() const { return options_; }
@@ -159,6 +176,7 @@ class LeftVentricle3D final : public SteppableSimulator {
   LeftVentricle3DOptions options_;
   ParameterSpace parameters_;
   std::unique_ptr<Impl> impl_;
+  BeatObserver observer_;
 };
 
 }  // namespace sigmaheart::model::fem
