@@ -1,0 +1,83 @@
+// `sigmaheart simulate --vtu` (app/commands/simulate.cpp, docs/models.md s.4.8): the last beat of
+// lv-3d as binary VTU files with a .pvd index, one per kept step, carrying the fields people look
+// at; a lumped model asks for fields it does not have: exit 2 before any work.
+#include "app/blackbox/register.h"
+#include "app/cli.h"
+#include "test_support.h"
+
+#include <gtest/gtest.h>
+
+#include <regex>
+#include <string>
+
+namespace sigmaheart::testing {
+namespace {
+
+// The command line with the executable's models (lv-3d is registered by app/blackbox).
+CliRun cli3d(const std::vector<std::string>& args) {
+  std::ostringstream out, err;
+  const int code = app::run_cli(args, out, err, app::blackbox::cli_models());
+  return {code, out.str(), err.str()};
+}
+
+// One beat at 40 ms steps on the coarse mesh (22 steps), healthy eikonal activation.
+std::string lv3d_config() {
+  return "name: beat\nsimulator:\n  model: lv-3d\n"
+         "  numerics: {mesh: coarse, dt: 40 ms, activation: healthy, min_beats: 1, max_beats: 1,"
+         " periodic_tolerance: 1.0}\n";
+}
+
+TEST(SimulateVtu, WritesTheLastBeatAsAParaViewTimeSeries) {
+  const auto dir = scratch_dir();
+  const auto cfg = write_file(dir / "beat.yaml", lv3d_config());
+  const CliRun r = cli3d({"simulate", cfg.string(), "-o", (dir / "beat.h5").string(), "--vtu", (dir / "vtu").string()});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("ParaView steps of the last beat"), std::string::npos) << r.out;
+
+  // The index lists every step of the beat, times from 0 to the period (0.85 s).
+  const std::string pvd = read_file(dir / "vtu" / "beat.pvd");
+  const std::regex entry(R"re(<DataSet timestep="([^"]+)" part="0" file="(beat_\d{4}\.vtu)"/>)re");
+  std::vector<std::pair<double, std::string>> steps;
+  for (auto it = std::sregex_iterator(pvd.begin(), pvd.end(), entry); it != std::sregex_iterator(); ++it)
+    steps.emplace_back(std::stod((*it)[1]), (*it)[2]);
+  ASSERT_EQ(steps.size(), 23u);  // t = 0 and 22 steps (0.85 s / 40 ms, the last one shorter)
+  EXPECT_EQ(steps.front().first, 0.0);
+  EXPECT_NEAR(steps.back().first, 0.85, 1e-12);
+
+  // Every file is a binary VTU of the coarse mesh with the documented arrays.
+  for (const auto& [t, file] : steps) {
+    const std::string vtu = read_file(dir / "vtu" / file);
+    ASSERT_NE(vtu.find("<AppendedData encoding=\"raw\">"), std::string::npos) << file;
+    EXPECT_NE(vtu.find("NumberOfCells=\"396\""), std::string::npos) << file;
+    for (const char* name : {"displacement", "hydrostatic_pressure", "activation_time", "active_stress",
+                             "fibre_strain", "fibre", "aha_segment"})
+      EXPECT_NE(vtu.find("Name=\"" + std::string(name) + "\""), std::string::npos) << file << " " << name;
+  }
+}
+
+TEST(SimulateVtu, ALumpedModelHasNoFieldsAndExitsTwoBeforeRunning) {
+  const auto dir = scratch_dir();
+  const auto cfg = write_file(dir / "sphere.yaml", "name: s\nsimulator:\n  model: lumped-sphere\n");
+  const CliRun r = cli({"simulate", cfg.string(), "-o", (dir / "s.h5").string(), "--vtu", (dir / "vtu").string()});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("has no 3D fields"), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "s.h5"));
+
+  // A file where the directory should go.
+  const auto file = write_file(dir / "taken", "x");
+  const CliRun f = cli({"simulate", cfg.string(), "--vtu", file.string()});
+  EXPECT_EQ(f.code, 2);
+  EXPECT_NE(f.err.find("expected a directory"), std::string::npos) << f.err;
+}
+
+// The configs of experiments/3d-twin (README.md there) stay valid: model, numerics, zones, data.
+TEST(ThreeDTwin, TheExperimentsConfigsValidate) {
+  for (const char* name : {"calibrate-3d.yaml", "personalize-3d.yaml", "personalize-lumped-from-3d.yaml"}) {
+    const std::string path = std::string(SIGMAHEART_SOURCE_DIR) + "/experiments/3d-twin/" + name;
+    const CliRun r = cli3d({"validate", path});
+    EXPECT_EQ(r.code, 0) << name << ": " << r.err;
+  }
+}
+
+}  // namespace
+}  // namespace sigmaheart::testing
