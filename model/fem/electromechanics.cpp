@@ -69,6 +69,7 @@ std::string LeftVentricle3DOptions::validate() const {
   // Below 12 elements around (and 6 along) the curved quadratic tetrahedra near the apex invert.
   if (n_circumferential < 12 || n_circumferential > 120 || n_circumferential % 6 != 0)
     return "n_circumferential must be a multiple of 6 in 12..120 (AHA 60-degree sectors)";
+  if (const std::string g = geometry.validate(); !g.empty()) return "geometry: " + g;
   if (quadrature_degree != 2 && quadrature_degree != 5) return "quadrature_degree must be 2 or 5";
   if (!(std::abs(fibre_endo_deg) <= 90) || !(std::abs(fibre_epi_deg) <= 90))
     return "fibre angles must lie in [-90, 90] deg";
@@ -131,7 +132,7 @@ std::vector<double> interpolate_vertex_times(const Geometry& g, const std::vecto
 
 std::shared_ptr<Geometry> build_geometry(const LeftVentricle3DOptions& o) {
   auto g = std::make_shared<Geometry>();
-  const EllipsoidGeometry shape = EllipsoidGeometry::human();
+  const EllipsoidGeometry& shape = o.geometry;
   EllipsoidMeshOptions mo;
   mo.n_transmural = o.n_transmural;
   mo.n_longitudinal = o.n_longitudinal;
@@ -338,6 +339,24 @@ struct LeftVentricle3D::Impl {
 
 namespace {
 
+// The direction tensor T of the active stress S_act = sigma_1D T (ActiveStress): f0 (x) f0, or the
+// average (f0 (x) f0 + s0 (x) s0)/2 of f (x) f over the tangent plane.
+Eigen::Matrix3d active_direction(const Frame& R, ActiveStress a) {
+  const Eigen::Vector3d f = R.col(0);
+  if (a == ActiveStress::kFibre) return f * f.transpose();
+  const Eigen::Vector3d s = R.col(1);
+  return 0.5 * (f * f.transpose() + s * s.transpose());
+}
+
+// The strain e = T : E that drives the BCS law (kFibre: f0 . E f0, written as before for the same
+// bits; kTangentIsotropic: the mean (f0 . E f0 + s0 . E s0)/2).
+double active_strain(const Frame& R, const Eigen::Matrix3d& E, ActiveStress a) {
+  const Eigen::Vector3d f = R.col(0);
+  if (a == ActiveStress::kFibre) return f.dot(E * f);
+  const Eigen::Vector3d s = R.col(1);
+  return 0.5 * (f.dot(E * f) + s.dot(E * s));
+}
+
 // The symmetric identity on 3x3 tensors, (delta_ik delta_jl + delta_il delta_jk)/2: dS = eta/h dE
 // for the viscous stress, in the minor-symmetric form the mechanics' tangent expects.
 const Matrix9d& symmetric_identity() {
@@ -368,16 +387,15 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
   const StressHook hook = [&](int e, int q, const Eigen::Matrix3d& E, const Frame& R, Eigen::Matrix3d& S, Matrix9d& D) {
     const size_t i = static_cast<size_t>(e * nqp + q);
     if (first_evaluation) En[i] = E;
-    const Eigen::Vector3d f = R.col(0);
-    const double eff = f.dot(E * f);
+    const Eigen::Matrix3d ff = active_direction(R, options.active_stress);
+    const double eff = active_strain(R, E, options.active_stress);
     bcs::ActiveParameters ap = m.act;
     ap.sigma0 = m.sigma0[static_cast<size_t>(g.labels.element_segment[static_cast<size_t>(e)] - 1)];
     bcs::CondensedStep cs;
     if (!bcs::condense_step(ap, xo.act[i], eff, acts[i], h, cs)) local_failed.store(true, std::memory_order_relaxed);
     trial[i] = cs.state;
-    const Eigen::Matrix3d ff = f * f.transpose();
     S += cs.stress * ff + eta_h * (E - En[i]);
-    const Eigen::Map<const Eigen::Matrix<double, 9, 1>> vff(ff.data());  // ff symmetric: any vec order
+    const Eigen::Map<const Eigen::Matrix<double, 9, 1>> vff(ff.data());  // symmetric: any vec order
     D.noalias() += cs.tangent * (vff * vff.transpose());
     D += eta_h * symmetric_identity();
   };
@@ -727,10 +745,7 @@ model::State LeftVentricle3D::initial_state(const Eigen::Ref<const Eigen::Vector
   // Relaxed contractile elements: e_c equals the fibre strain, so the active stress is zero.
   k.act.assign(static_cast<size_t>(impl_->nq()), bcs::ActiveState{});
   const auto& frames = impl_->geo->frames;
-  for (size_t i = 0; ok && i < k.act.size(); ++i) {
-    const Eigen::Vector3d f = frames[i].col(0);
-    k.act[i].e_c = f.dot(E[i] * f);
-  }
+  for (size_t i = 0; ok && i < k.act.size(); ++i) k.act[i].e_c = active_strain(frames[i], E[i], options_.active_stress);
   st.x = impl_->pack_state(k);
   if (!ok) st.x.setConstant(std::numeric_limits<double>::quiet_NaN());
   return st;

@@ -11,7 +11,8 @@
 //   R_p(u)         = - int (J - 1) q dV                                       = 0  (incompressible)
 //   r_c            = (V(u) - V^n)/h + q(P_v, P_ar, P_at) + C_cav (P_v - P_v^n)/h = 0  (cavity)
 //   r_ar           = the proximal Windkessel row, P_d eliminated exactly      = 0
-// with S = S_passive(E) + sigma_1D(E_ff) f0 (x) f0 + eta (E - E^n)/h. sigma_1D is the BCS stress
+// with S = S_passive(E) + sigma_1D(E_ff) f0 (x) f0 + eta (E - E^n)/h (or the tangent-isotropic
+// active stress of ActiveStress::kTangentIsotropic). sigma_1D is the BCS stress
 // of the point, condensed locally (bcs::condense_step: backward Euler on (e_c, k_c, tau_c) with its
 // activation time T_d and APD) with its consistent tangent. Newton's method runs on (u, p, P_v,
 // P_ar) together; the dense row dV/du and column dR_u/dP_v border the sparse tangent and are
@@ -75,15 +76,32 @@ enum class ActivationSource {
   kPrescribed,    // per-vertex times from set_activation_times
 };
 
+// How the active stress of a quadrature point acts in the tangent plane of the wall.
+enum class ActiveStress {
+  // Along the helix fibre f0: S_act = sigma_1D(e) f0 (x) f0, e = f0 . E f0.
+  kFibre,
+  // Fibres spread evenly in the tangent plane (the lumped sphere's assumption, docs/models.md
+  // s.2.1; Caruel et al. 2014 s.2.2): the average of f (x) f over the directions f of the plane
+  // spanned by f0 and s0 (the sheet direction, tangent to the wall: fibres.h) is
+  // T = (f0 (x) f0 + s0 (x) s0)/2, their mean strain is e = T : E, and one BCS state driven by it
+  // gives S_act = sigma_1D(e) T. Exact for an equibiaxial tangent strain (every direction has the
+  // same strain, hence the same BCS state); independent of the helix angle.
+  kTangentIsotropic,
+};
+
 struct LeftVentricle3DOptions {
-  // Mesh of the human-sized truncated ellipsoid (EllipsoidGeometry::human(), docs/models.md s.4.1),
-  // quadratic tetrahedra (P2-P1 Taylor-Hood).
+  // Geometry of the truncated ellipsoid (docs/models.md s.4.1): the human-sized one by default;
+  // equal short and long radii give a truncated spherical shell (docs/models.md s.4.8,
+  // "Consistency with the lumped sphere").
+  EllipsoidGeometry geometry = EllipsoidGeometry::human();
+  // Mesh of the geometry, quadratic tetrahedra (P2-P1 Taylor-Hood).
   int n_transmural = 1;
   int n_longitudinal = 6;      // a multiple of 3 puts node rings on the AHA levels
   int n_circumferential = 12;  // a multiple of 6 (nodes on the 60-degree AHA bounds), >= 12
   int quadrature_degree = 2;   // 2 (4 points) or 5 (14 points)
   double fibre_endo_deg = 60.0;   // helix angle at the endocardium [deg]
   double fibre_epi_deg = -60.0;   // at the epicardium [deg]
+  ActiveStress active_stress = ActiveStress::kFibre;
   BaseCondition base = BaseCondition::kSliding;
 
   double dt = 5e-3;            // time step [s] (cut in halves on a failed Newton solve)

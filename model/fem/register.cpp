@@ -22,7 +22,25 @@ LeftVentricle3DOptions read_lv3d_options(const OptionReader& node) {
   node.check_keys({"mesh", "quadrature_degree", "fibre_endo", "fibre_epi", "base", "dt", "max_step_cuts",
                    "inflation_steps", "min_beats", "max_beats", "periodic_tolerance", "output_every",
                    "newton_tolerance", "newton_max_iterations", "activation", "conduction_velocity",
-                   "linear_solver"});
+                   "linear_solver", "geometry", "active_stress"});
+  if (node.has("geometry")) {
+    // The truncated ellipsoid's radii and base plane (EllipsoidGeometry, docs/models.md s.4.1);
+    // keys left out keep the human-sized values.
+    const auto g = node.child("geometry");
+    if (!g->is_map()) node.fail("geometry", node.path() + ".geometry: expected a map of r_short_endo, "
+                                            "r_long_endo, r_short_epi, r_long_epi, z_base [m]");
+    g->check_keys({"r_short_endo", "r_long_endo", "r_short_epi", "r_long_epi", "z_base"});
+    EllipsoidGeometry& e = o.geometry;
+    e.r_short_endo = g->quantity("r_short_endo", "m", e.r_short_endo);
+    e.r_long_endo = g->quantity("r_long_endo", "m", e.r_long_endo);
+    e.r_short_epi = g->quantity("r_short_epi", "m", e.r_short_epi);
+    e.r_long_epi = g->quantity("r_long_epi", "m", e.r_long_epi);
+    e.z_base = g->quantity("z_base", "m", e.z_base);
+  }
+  if (node.has("active_stress"))
+    o.active_stress = node.choice("active_stress", {"fibre", "tangent_isotropic"}) == "fibre"
+                          ? ActiveStress::kFibre
+                          : ActiveStress::kTangentIsotropic;
   if (node.has("mesh")) {
     const auto mesh = node.child("mesh");
     if (mesh->is_map()) {
@@ -56,6 +74,7 @@ LeftVentricle3DOptions read_lv3d_options(const OptionReader& node) {
     std::string field = msg.substr(0, msg.find_first_of(" ="));
     if (field.rfind("n_", 0) == 0) field = "mesh";
     if (field == "fibre") field = "fibre_endo";
+    if (field == "geometry:") field = "geometry";
     node.fail(field, node.path() + ": " + msg);
   }
   return o;

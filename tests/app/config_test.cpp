@@ -131,6 +131,29 @@ TEST(Config, Lv3dNumericsErrorsPointAtTheField) {
             0u);
   const Config c = parse_config(with_line(lv, 4, "  numerics: {mesh: coarse, dt: 10 ms}"), "x.yaml", {}, blackbox::cli_models());
   EXPECT_EQ(c.simulator.model, "lv-3d");
+  // The geometry and the active stress of the thin-shell comparison (docs/models.md s.4.8).
+  EXPECT_EQ(error_of([&] {
+              parse_config(with_line(lv, 4, "  numerics: {geometry: {r_short_endo: 40 mm}}"), "x.yaml", {},
+                           blackbox::cli_models());
+            }),
+            "x.yaml:4:24: simulator.numerics: geometry: epicardial radii must exceed the endocardial ones");
+  EXPECT_EQ(error_of([&] {
+              parse_config(with_line(lv, 4, "  numerics: {geometry: {r_endo: 4 cm}}"), "x.yaml", {},
+                           blackbox::cli_models());
+            }),
+            "x.yaml:4:25: unknown key 'r_endo' in simulator.numerics.geometry; expected one of: r_short_endo, "
+            "r_long_endo, r_short_epi, r_long_epi, z_base");
+  EXPECT_EQ(error_of([&] {
+              parse_config(with_line(lv, 4, "  numerics: {active_stress: tangential}"), "x.yaml", {},
+                           blackbox::cli_models());
+            }),
+            "x.yaml:4:29: simulator.numerics.active_stress: unknown value 'tangential'; expected one of: fibre, "
+            "tangent_isotropic");
+  const std::string shell_numerics =
+      "  numerics: {active_stress: tangent_isotropic, geometry: {r_short_endo: 25 mm, r_long_endo: 25 mm, "
+      "r_short_epi: 30 mm, r_long_epi: 30 mm, z_base: 22.5 mm}}";
+  EXPECT_EQ(error_of([&] { parse_config(with_line(lv, 4, shell_numerics), "x.yaml", {}, blackbox::cli_models()); }),
+            "");
 }
 #endif
 

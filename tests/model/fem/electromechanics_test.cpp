@@ -93,6 +93,19 @@ TEST(Lv3dRegistration, BadNumericsAreReportedAtTheirKey) {
   EXPECT_EQ(o.n_transmural, 3);
   EXPECT_EQ(o.n_circumferential, 36);
   EXPECT_EQ(o.activation, ActivationSource::kApexDistance);
+  EXPECT_EQ(o.active_stress, ActiveStress::kFibre);
+  EXPECT_EQ(o.geometry.r_long_endo, EllipsoidGeometry::human().r_long_endo);
+  // The thin-shell comparison's keys (docs/models.md s.4.8).
+  EXPECT_EQ(read_lv3d_options(MapOptions(std::map<std::string, std::string>{{"active_stress", "tangent_isotropic"}}))
+                .active_stress,
+            ActiveStress::kTangentIsotropic);
+  EXPECT_EQ(error_of({{"active_stress", "both"}}), "active_stress: bad choice");
+  EXPECT_EQ(error_of({{"geometry", "sphere"}}),
+            "geometry: simulator.numerics.geometry: expected a map of r_short_endo, r_long_endo, r_short_epi, "
+            "r_long_epi, z_base [m]");
+  LeftVentricle3DOptions inverted;
+  inverted.geometry.r_short_epi = 0.5 * inverted.geometry.r_short_endo;
+  EXPECT_EQ(inverted.validate(), "geometry: epicardial radii must exceed the endocardial ones");
 }
 
 TEST(Lv3dRegistration, ParametersAreTaggedWithOneContractilityPerAhaSegment) {
