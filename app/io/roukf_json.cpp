@@ -50,6 +50,7 @@ void write_roukf_json(const std::filesystem::path& path, const std::string& name
   j["nis_band_95"] = {summary.nis_band_lower, summary.nis_band_upper};
   j["nis_frames"] = summary.nis_frames;
   j["nis_source"] = summary.nis_source;
+  j["nis_inside_band"] = summary.nis_mean >= summary.nis_band_lower && summary.nis_mean <= summary.nis_band_upper;
   j["threads"] = results.threads;
   j["wall_seconds"] = summary.wall_seconds;
   for (size_t k = 0; k < summary.parameter_names.size(); ++k) {
@@ -115,6 +116,17 @@ std::string roukf_report(const RoukfResults& results) {
         << format_number(pass_error(pass_error.rows() - 1, j), 2) << "%";
     }
     t << "  " << shown_unit(j) << "\n";
+  }
+  // What a NIS outside its band means for the numbers above (docs/estimation.md s.4.5).
+  if (std::isfinite(summary.nis_mean) && summary.nis_mean > summary.nis_band_upper) {
+    t << "\nWARNING: the mean NIS " << format_number(summary.nis_mean, 4) << " is above its 95 % band "
+      << format_number(summary.nis_band_lower, 4) << "-" << format_number(summary.nis_band_upper, 4)
+      << ": the model does not explain the data within the stated noise (model-form error, or the noise is "
+         "underestimated), so the +-2 sigma intervals are too narrow to be credible.\n";
+  } else if (std::isfinite(summary.nis_mean) && summary.nis_mean < summary.nis_band_lower) {
+    t << "\nnote: the mean NIS " << format_number(summary.nis_mean, 4) << " is below its 95 % band "
+      << format_number(summary.nis_band_lower, 4) << "-" << format_number(summary.nis_band_upper, 4)
+      << ": the residuals are smaller than the stated noise (the intervals are conservative).\n";
   }
   if (truth) {
     t << "\nmax | mean error over the parameters after each pass:";

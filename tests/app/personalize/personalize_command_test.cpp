@@ -124,6 +124,25 @@ TEST(PersonalizeCommand, ZonesTieTheirSegmentsToOneParameterEach) {
   EXPECT_NEAR(j["parameters"]["sigma0_lad"]["truth"].get<double>(), 21200.0, 1e-6);
 }
 
+// Noise stated 10 times smaller than the data carry: the NIS lands far above its band and the
+// report says what that means for the intervals (the JSON flags it).
+TEST(PersonalizeCommand, ANisAboveItsBandIsReportedInWords) {
+  const auto dir = scratch_dir();
+  std::string text = config_with("sigma0: {zones: {lad: [1, 2, 7, 8, 13, 14, 17], rest: [3, 4, 5, 6, 9, 10, 11, "
+                                 "12, 15, 16]}, prior: 5.3e4, spread: 50 %, transform: log}");
+  text.replace(text.find("noise: 0.05 mL"), 14, "noise: 0.005 mL");
+  const auto cfg = write_file(dir / "tight.yaml", text);
+  const std::string json = (dir / "tight.json").string();
+  const CliRun r = cli({"personalize", cfg.string(), "-o", (dir / "tight.h5").string(), "--summary", json,
+                        "--threads", "2"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(read_file(json));
+  EXPECT_GT(j["nis_mean"].get<double>(), j["nis_band_95"][1].get<double>());
+  EXPECT_FALSE(j["nis_inside_band"].get<bool>());
+  EXPECT_NE(r.out.find("WARNING: the mean NIS"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("too narrow to be credible"), std::string::npos) << r.out;
+}
+
 TEST(PersonalizeCommand, BadZonesAreReportedAtTheirLineAndColumn) {
   const auto dir = scratch_dir();
   for (const auto& [estimate, what] :
