@@ -28,9 +28,17 @@ namespace {
 using namespace sigmaheart::model;
 using namespace sigmaheart::model::fem;
 
+// Third argument: the linear solver (0 SparseLU, the default; 1 UMFPACK; 2 GMRES + BoomerAMG).
+const LinearSolver kSolvers[] = {LinearSolver::kSparseLU, LinearSolver::kUmfPack, LinearSolver::kAmg};
+
 void BM_Lv3dBeat(benchmark::State& st) {
   const char* presets[] = {"coarse", "medium", "fine"};
   LeftVentricle3DOptions o = with_mesh_preset({}, presets[st.range(0)]);
+  o.linear_solver = kSolvers[st.range(2)];
+  if (!linear_solver_available(o.linear_solver)) {
+    st.SkipWithError("linear solver not built in");
+    return;
+  }
   o.max_beats = 1;
   o.periodic_tolerance = 1.0;
   omp_set_num_threads(static_cast<int>(st.range(1)));
@@ -59,6 +67,11 @@ void BM_Lv3dBeat(benchmark::State& st) {
 void BM_Lv3dInflationAndTenSteps(benchmark::State& st) {
   const char* presets[] = {"coarse", "medium", "fine"};
   LeftVentricle3DOptions o = with_mesh_preset({}, presets[st.range(0)]);
+  o.linear_solver = kSolvers[st.range(2)];
+  if (!linear_solver_available(o.linear_solver)) {
+    st.SkipWithError("linear solver not built in");
+    return;
+  }
   omp_set_num_threads(static_cast<int>(st.range(1)));
   LeftVentricle3D lv(o);
   const Eigen::VectorXd theta = lv.parameters().nominal();
@@ -74,13 +87,13 @@ void BM_Lv3dInflationAndTenSteps(benchmark::State& st) {
   st.counters["unknowns"] = 3.0 * lv.mesh().n_nodes() + lv.mesh().n_vertices;
 }
 BENCHMARK(BM_Lv3dInflationAndTenSteps)
-    ->ArgsProduct({{0, 1, 2}, {1, 2}})
+    ->ArgsProduct({{0, 1, 2}, {1, 2}, {0, 1, 2}})
     ->Unit(benchmark::kSecond)
     ->Iterations(1)
     ->UseRealTime();
 
 BENCHMARK(BM_Lv3dBeat)
-    ->ArgsProduct({{0, 1, 2}, {1, 2}})
+    ->ArgsProduct({{0, 1, 2}, {1, 2}, {0, 1, 2}})
     ->Unit(benchmark::kSecond)
     ->Iterations(1)
     ->UseRealTime();
