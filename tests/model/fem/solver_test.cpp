@@ -80,6 +80,7 @@ TEST(SparseSolver, AmgGivesTheSameBitsInRepeatedSolvesAndAnyThreadCount) {
   io.augmentation = 1.0;
   io.relative_tolerance = 1e-4;  // a short run: bits, not accuracy
   Eigen::VectorXd first;
+  const int threads_before = omp_get_max_threads();
   for (int threads : {1, 2}) {
     omp_set_num_threads(threads);
     SparseSolver amg(LinearSolver::kAmg, io);
@@ -96,7 +97,7 @@ TEST(SparseSolver, AmgGivesTheSameBitsInRepeatedSolvesAndAnyThreadCount) {
     EXPECT_EQ(amg.solve(-sys.R), x);
     EXPECT_EQ(amg.iterative_stats().solves, 2);
   }
-  omp_set_num_threads(omp_get_num_procs());
+  omp_set_num_threads(threads_before);
 }
 
 TEST(SparseSolver, AmgReportsMisuseAndNonConvergence) {
