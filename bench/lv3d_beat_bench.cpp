@@ -22,7 +22,7 @@
 // average ~10: wall 4-7x CPU): coarse 1 thread UMFPACK 3.25 s, AMG 8.93 s; 2 threads 7.51 s and
 // 7.11 s; medium 1 thread UMFPACK 37.9 s, AMG 147 s (growth exponents 1.29 and 1.47 in the
 // unknowns). The fine mesh was not run. docs/models.md s.4.8 discusses why AMG loses here.
-//   build/bench/lv3d_beat_bench --benchmark_filter='TenSteps/(0/[12]/[12]|1/1/[12])/' 
+//   build/bench/lv3d_beat_bench --benchmark_filter='TenSteps/(0/[12]/[12]|1/1/[12])/'
 #include "model/fem/electromechanics.h"
 #include "model/fem/register.h"
 
