@@ -447,7 +447,9 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
   // the object's life and every factorisation is a function of the tangent alone. UMFPACK's
   // symbolic step also reads values, so it gets a fresh solver per step; its BLAS kernels round
   // differently with the alignment of its workspace, so its runs in different threads differ by
-  // about 1e-6 relative: SparseLU is the default for bitwise reproducible runs.
+  // about 1e-6 relative: SparseLU is the default for bitwise reproducible runs. The iterative
+  // solver (kAmg, solver.h) also gets a fresh object per step; its set-up and GMRES depend on the
+  // tangent alone (hypre serial, no OpenMP), so it gives the same bits in every thread.
   std::unique_ptr<SparseSolver> fresh;
   if (options.linear_solver == LinearSolver::kSparseLU) {
     if (!lu) lu = std::make_unique<SparseSolver>(LinearSolver::kSparseLU);

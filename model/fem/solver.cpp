@@ -16,6 +16,7 @@
 #include <_hypre_parcsr_ls.h>
 #endif
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
@@ -23,6 +24,7 @@
 #include <limits>
 #include <mutex>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 namespace sigmaheart::model::fem {
