@@ -254,7 +254,7 @@ struct LeftVentricle3D::Impl {
   BcsPassiveParameters mech_passive{-1, -1, -1, -1};
   BaseCondition base = BaseCondition::kSliding;
   LeftVentricle3DOptions options;
-  std::unique_ptr<SparseDirectSolver> lu;  // SparseLU with the pattern analysed once (step())
+  std::unique_ptr<SparseSolver> lu;  // SparseLU with the pattern analysed once (step())
 
   Mechanics& mechanics(const BcsPassiveParameters& p) {
     if (!mech || p.c1 != mech_passive.c1 || p.c2 != mech_passive.c2 || p.c_exp != mech_passive.c_exp ||
@@ -465,14 +465,17 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
   // the object's life and every factorisation is a function of the tangent alone. UMFPACK's
   // symbolic step also reads values, so it gets a fresh solver per step; its BLAS kernels round
   // differently with the alignment of its workspace, so its runs in different threads differ by
-  // about 1e-6 relative: SparseLU is the default for bitwise reproducible runs.
-  std::unique_ptr<SparseDirectSolver> fresh;
+  // about 1e-6 relative: SparseLU is the default for bitwise reproducible runs. The iterative
+  // solver (kAmg, solver.h) also gets a fresh object per step; its set-up and GMRES depend on the
+  // tangent alone (hypre serial, no OpenMP), so it gives the same bits in every thread.
+  std::unique_ptr<SparseSolver> fresh;
   if (options.linear_solver == LinearSolver::kSparseLU) {
-    if (!lu) lu = std::make_unique<SparseDirectSolver>(LinearSolver::kSparseLU);
+    if (!lu) lu = std::make_unique<SparseSolver>(LinearSolver::kSparseLU);
   } else {
-    fresh = std::make_unique<SparseDirectSolver>(options.linear_solver);
+    fresh = std::make_unique<SparseSolver>(options.linear_solver);
+    fresh->set_saddle_point(static_cast<int>(nu_));
   }
-  SparseDirectSolver& solver = fresh ? *fresh : *lu;
+  SparseSolver& solver = fresh ? *fresh : *lu;
   bool factors_fresh = false;  // the factors belong to the current point
   bool have_factors = false;
   const double tol = options.newton_tolerance;

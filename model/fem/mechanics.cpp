@@ -45,7 +45,8 @@ LinearSolver parse_linear_solver(const std::string& s) {
   if (l == "auto") return LinearSolver::kAuto;
   if (l == "sparselu") return LinearSolver::kSparseLU;
   if (l == "umfpack") return LinearSolver::kUmfPack;
-  throw std::invalid_argument("unknown linear solver '" + s + "' (expected auto, sparselu or umfpack)");
+  if (l == "amg") return LinearSolver::kAmg;
+  throw std::invalid_argument("unknown linear solver '" + s + "' (expected auto, sparselu, umfpack or amg)");
 }
 
 std::string MechanicsOptions::validate() const {
@@ -433,7 +434,8 @@ Eigen::VectorXd Mechanics::pressure_load(const State& s) const {
 Summary Mechanics::solve(State& state, const Load& from, const Load& to, const ProgressCallback& progress) {
   Summary sum;
   const int nu = 3 * mesh_.n_nodes();
-  SparseDirectSolver solver(opt_.linear_solver);
+  SparseSolver solver(opt_.linear_solver);
+  solver.set_saddle_point(nu);
   Eigen::VectorXd R;
   SparseMatrix K;
   auto load_at = [&](double lam) {

@@ -1,5 +1,6 @@
 // Quasi-static hyperelastic mechanics of the myocardium: total Lagrangian, mixed displacement-
-// pressure (u-p) formulation, Newton's method with a sparse direct solver.
+// pressure (u-p) formulation, Newton's method with a sparse direct solver or AMG-preconditioned
+// GMRES (solver.h).
 //
 // Discretisation: Taylor-Hood tetrahedra (quadratic displacement, linear pressure on the
 // vertices) on a quadratic mesh; on a linear mesh P1-P1 is available but locks/is unstable for
@@ -31,7 +32,7 @@ using SparseMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
 
 enum class BaseCondition { kFixed, kSliding };  // sliding: normal (z) fixed, 3 rigid in-plane modes removed
 
-// Parse "fixed"/"sliding", "auto"/"sparselu"/"umfpack"; std::invalid_argument otherwise.
+// Parse "fixed"/"sliding", "auto"/"sparselu"/"umfpack"/"amg"; std::invalid_argument otherwise.
 BaseCondition parse_base_condition(const std::string& s);
 LinearSolver parse_linear_solver(const std::string& s);
 

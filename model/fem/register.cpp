@@ -67,8 +67,15 @@ LeftVentricle3DOptions read_lv3d_options(const OptionReader& node) {
                                           : ActivationSource::kLbbb;
   }
   o.conduction_velocity = node.quantity("conduction_velocity", "m/s", o.conduction_velocity);
-  if (node.has("linear_solver"))
-    o.linear_solver = parse_linear_solver(node.choice("linear_solver", {"auto", "umfpack", "sparselu"}));
+  if (node.has("linear_solver")) {
+    o.linear_solver = parse_linear_solver(node.choice("linear_solver", {"auto", "umfpack", "sparselu", "amg"}));
+    if (!linear_solver_available(o.linear_solver))
+      node.fail("linear_solver", node.path() + ": linear_solver " + node.choice("linear_solver", {"umfpack", "amg"}) +
+                                     " is not built in (" +
+                                     (o.linear_solver == LinearSolver::kAmg ? "hypre, Debian libhypre-dev"
+                                                                            : "SuiteSparse, Debian libsuitesparse-dev") +
+                                     "); use sparselu");
+  }
   if (const std::string msg = o.validate(); !msg.empty()) {
     // Messages start with the field name; map it to its key.
     std::string field = msg.substr(0, msg.find_first_of(" ="));

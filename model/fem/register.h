@@ -19,7 +19,8 @@ void register_fem_models(ModelRegistry& registry);
 //   dt: 5 ms,  max_step_cuts: 6,  inflation_steps: 4,  min_beats: 1,  max_beats: 20,
 //   periodic_tolerance: 1e-3,  output_every: 1,  newton_tolerance: 1e-8,  newton_max_iterations: 20
 //   activation: synchronous | apex_distance,  conduction_velocity: 0.6 m/s
-//   linear_solver: sparselu (default: the same bits in every thread) | auto | umfpack
+//   linear_solver: sparselu (default: the same bits in every thread) | auto | umfpack | amg (GMRES +
+//   BoomerAMG block preconditioner, solver.h; for the medium and fine meshes)
 // Errors go through the reader (file:line:column in app/).
 LeftVentricle3DOptions read_lv3d_options(const OptionReader& numerics);
 

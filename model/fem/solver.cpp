@@ -4,22 +4,256 @@
 #ifdef SIGMAHEART_FEM_HAVE_UMFPACK
 #include <Eigen/UmfPackSupport>
 #endif
+#ifdef SIGMAHEART_FEM_HAVE_HYPRE
+// MPI's C interface only (Open MPI and MPICH otherwise pull in their C++ bindings).
+#define OMPI_SKIP_MPICXX 1
+#define MPICH_SKIP_MPICXX 1
+#include <mpi.h>
+// hypre's public IJ/ParCSR/BoomerAMG interface; _hypre_parcsr_ls.h only for the data pointer of a
+// ParVector and the operators of the AMG levels (factor_nonzeros).
+#include <HYPRE.h>
+#include <HYPRE_parcsr_ls.h>
+#include <_hypre_parcsr_ls.h>
+#endif
 
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <limits>
+#include <mutex>
 #include <stdexcept>
+#include <string>
+#include <vector>
 
 namespace sigmaheart::model::fem {
 
 using SparseMatrixInt = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
+using RowMatrix = Eigen::SparseMatrix<double, Eigen::RowMajor, int>;
 
-struct SparseDirectSolver::Impl {
+bool linear_solver_available(LinearSolver kind) {
+  switch (kind) {
+    case LinearSolver::kAuto:
+    case LinearSolver::kSparseLU:
+      return true;
+    case LinearSolver::kUmfPack:
+#ifdef SIGMAHEART_FEM_HAVE_UMFPACK
+      return true;
+#else
+      return false;
+#endif
+    case LinearSolver::kAmg:
+#ifdef SIGMAHEART_FEM_HAVE_HYPRE
+      return true;
+#else
+      return false;
+#endif
+  }
+  return false;
+}
+
+std::string IterativeOptions::validate() const {
+  if (!(relative_tolerance > 0 && relative_tolerance < 1)) return "relative_tolerance must be in (0, 1)";
+  if (max_iterations < 1) return "max_iterations must be >= 1";
+  if (restart < 1) return "restart must be >= 1";
+  if (!(strong_threshold > 0 && strong_threshold < 1)) return "strong_threshold must be in (0, 1)";
+  if (!(augmentation >= 0) || !std::isfinite(augmentation)) return "augmentation must be finite and >= 0";
+  return {};
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+#ifdef SIGMAHEART_FEM_HAVE_HYPRE
+// hypre (Debian's libhypre is built with MPI) runs on MPI_COMM_SELF: every solver is serial and
+// private to its simulator, so ensemble members on different ranks or threads never talk to each
+// other. MPI must be initialised; a process that has no MpiSession (tests, benchmarks) gets it here,
+// finalised at exit unless someone else finalised it first. hypre calls MPI (on MPI_COMM_SELF)
+// inside its set-up; below MPI_THREAD_MULTIPLE two threads may not do that at the same time, so
+// hypre calls are then serialised by a process-wide mutex (uncontended with one thread).
+struct HypreRuntime {
+  bool serialise = true;
+  std::mutex mutex;
+  HypreRuntime() {
+    int initialised = 0;
+    MPI_Initialized(&initialised);
+    if (!initialised) {
+      int provided = 0;
+      MPI_Init_thread(nullptr, nullptr, MPI_THREAD_MULTIPLE, &provided);
+      std::atexit([] {
+        int finalised = 0;
+        MPI_Finalized(&finalised);
+        if (!finalised) MPI_Finalize();
+      });
+    }
+    int level = MPI_THREAD_SINGLE;
+    MPI_Query_thread(&level);
+    serialise = level < MPI_THREAD_MULTIPLE;
+    HYPRE_Init();
+  }
+};
+
+HypreRuntime& hypre_runtime() {
+  static HypreRuntime rt;  // thread-safe initialisation (C++11 magic statics)
+  return rt;
+}
+
+class HypreLock {
+ public:
+  explicit HypreLock(HypreRuntime& rt) : lock_(rt.mutex, std::defer_lock) {
+    if (rt.serialise) lock_.lock();
+  }
+
+ private:
+  std::unique_lock<std::mutex> lock_;
+};
+
+// A serial hypre ParCSR matrix built from a row-major Eigen matrix, and BoomerAMG on it.
+class BoomerAmg {
+ public:
+  BoomerAmg(const RowMatrix& A, double strong_threshold) {
+    HypreRuntime& rt = hypre_runtime();
+    HypreLock lock(rt);
+    const HYPRE_BigInt n = static_cast<HYPRE_BigInt>(A.rows());
+    HYPRE_IJMatrixCreate(MPI_COMM_SELF, 0, n - 1, 0, n - 1, &ij_);
+    HYPRE_IJMatrixSetObjectType(ij_, HYPRE_PARCSR);
+    std::vector<HYPRE_Int> ncols(static_cast<size_t>(A.rows()));
+    std::vector<HYPRE_BigInt> rows(static_cast<size_t>(A.rows())), cols(static_cast<size_t>(A.nonZeros()));
+    for (Eigen::Index r = 0; r < A.rows(); ++r) {
+      rows[static_cast<size_t>(r)] = static_cast<HYPRE_BigInt>(r);
+      ncols[static_cast<size_t>(r)] = A.outerIndexPtr()[r + 1] - A.outerIndexPtr()[r];
+    }
+    for (Eigen::Index k = 0; k < A.nonZeros(); ++k) cols[static_cast<size_t>(k)] = A.innerIndexPtr()[k];
+    HYPRE_IJMatrixSetRowSizes(ij_, ncols.data());
+    HYPRE_IJMatrixInitialize(ij_);
+    HYPRE_IJMatrixSetValues(ij_, static_cast<HYPRE_Int>(A.rows()), ncols.data(), rows.data(), cols.data(),
+                            A.valuePtr());
+    HYPRE_IJMatrixAssemble(ij_);
+    HYPRE_IJMatrixGetObject(ij_, reinterpret_cast<void**>(&par_));
+    make_vector(n, &ijb_, &b_);
+    make_vector(n, &ijx_, &x_);
+
+    HYPRE_BoomerAMGCreate(&amg_);
+    HYPRE_BoomerAMGSetPrintLevel(amg_, 0);
+    HYPRE_BoomerAMGSetMaxIter(amg_, 1);  // one V-cycle: a preconditioner
+    HYPRE_BoomerAMGSetTol(amg_, 0.0);
+    // Systems AMG for elasticity, the "unknown approach" (Baker, Kolev & Yang 2010, "Improving
+    // algebraic multigrid interpolation operators for linear elasticity problems", Numer. Linear
+    // Algebra Appl. 17:495, s.2): 3 functions per node (node-major dofs, hypre's default dof_func),
+    // each coarsened and interpolated on its own couplings. The nodal variant (Frobenius norms of
+    // the node blocks) took as many iterations on the lv-3d tangents (84 against 90, medium mesh).
+    HYPRE_BoomerAMGSetNumFunctions(amg_, 3);
+    HYPRE_BoomerAMGSetNodal(amg_, 0);
+    HYPRE_BoomerAMGSetStrongThreshold(amg_, strong_threshold);
+    HYPRE_BoomerAMGSetCoarsenType(amg_, 10);  // HMIS
+    HYPRE_BoomerAMGSetInterpType(amg_, 6);    // extended+i
+    HYPRE_BoomerAMGSetPMaxElmts(amg_, 4);
+    HYPRE_BoomerAMGSetRelaxType(amg_, 8);     // l1-scaled symmetric Gauss-Seidel: a fixed linear operator
+    HYPRE_BoomerAMGSetRelaxOrder(amg_, 0);    // lexicographic order: deterministic
+    ok_ = HYPRE_BoomerAMGSetup(amg_, par_, b_, x_) == 0;
+    HYPRE_ClearAllErrors();
+  }
+  ~BoomerAmg() {
+    HypreLock lock(hypre_runtime());
+    HYPRE_BoomerAMGDestroy(amg_);
+    HYPRE_IJVectorDestroy(ijb_);
+    HYPRE_IJVectorDestroy(ijx_);
+    HYPRE_IJMatrixDestroy(ij_);
+  }
+  BoomerAmg(const BoomerAmg&) = delete;
+  BoomerAmg& operator=(const BoomerAmg&) = delete;
+
+  bool ok() const { return ok_; }
+
+  // z = one V-cycle applied to r (zero initial guess).
+  void apply(const double* r, double* z) {
+    HypreLock lock(hypre_runtime());
+    const size_t n = size();
+    std::memcpy(data(b_), r, n * sizeof(double));
+    std::memset(data(x_), 0, n * sizeof(double));
+    HYPRE_BoomerAMGSolve(amg_, par_, b_, x_);
+    std::memcpy(z, data(x_), n * sizeof(double));
+  }
+
+  int levels() const { return hypre_ParAMGDataNumLevels(static_cast<hypre_ParAMGData*>(static_cast<void*>(amg_))); }
+  long long operator_nonzeros() const {
+    auto* data = static_cast<hypre_ParAMGData*>(static_cast<void*>(amg_));
+    long long nnz = 0;
+    for (int l = 0; l < hypre_ParAMGDataNumLevels(data); ++l) {
+      hypre_ParCSRMatrix* Al = hypre_ParAMGDataAArray(data)[l];
+      nnz += hypre_CSRMatrixNumNonzeros(hypre_ParCSRMatrixDiag(Al)) + hypre_CSRMatrixNumNonzeros(hypre_ParCSRMatrixOffd(Al));
+    }
+    return nnz;
+  }
+
+ private:
+  static void make_vector(HYPRE_BigInt n, HYPRE_IJVector* ij, HYPRE_ParVector* par) {
+    HYPRE_IJVectorCreate(MPI_COMM_SELF, 0, n - 1, ij);
+    HYPRE_IJVectorSetObjectType(*ij, HYPRE_PARCSR);
+    HYPRE_IJVectorInitialize(*ij);
+    HYPRE_IJVectorAssemble(*ij);
+    HYPRE_IJVectorGetObject(*ij, reinterpret_cast<void**>(par));
+  }
+  static double* data(HYPRE_ParVector v) {
+    return hypre_VectorData(hypre_ParVectorLocalVector(reinterpret_cast<hypre_ParVector*>(v)));
+  }
+  size_t size() const {
+    return static_cast<size_t>(hypre_VectorSize(hypre_ParVectorLocalVector(reinterpret_cast<hypre_ParVector*>(b_))));
+  }
+
+  HYPRE_IJMatrix ij_ = nullptr;
+  HYPRE_ParCSRMatrix par_ = nullptr;
+  HYPRE_IJVector ijb_ = nullptr, ijx_ = nullptr;
+  HYPRE_ParVector b_ = nullptr, x_ = nullptr;
+  HYPRE_Solver amg_ = nullptr;
+  bool ok_ = false;
+};
+#endif
+
+}  // namespace
+
+struct SparseSolver::Impl {
   bool analysed = false;
   Eigen::SparseLU<SparseMatrixInt, Eigen::COLAMDOrdering<int>> lu;
 #ifdef SIGMAHEART_FEM_HAVE_UMFPACK
   Eigen::UmfPackLU<SparseMatrixInt> umf;
 #endif
+#ifdef SIGMAHEART_FEM_HAVE_HYPRE
+  // The iterative solver: K = [A B^T; B C] with A the displacement block (n_u rows), preconditioned
+  // through its augmented-Lagrangian form T K with T = [I g B^T W^-1; 0 I] (factorize()).
+  int n_u = -1;
+  SparseMatrixInt K;          // the matrix of the last factorize()
+  RowMatrix Bt;               // K(0:n_u, n_u:n)
+  RowMatrix Bt_g;             // (T K)(0:n_u, n_u:n) = B^T + g B^T W^-1 C
+  Eigen::VectorXd g_winv;     // g / W
+  Eigen::VectorXd schur;      // diagonal Schur complement approximation (positive), n_p
+  Eigen::VectorXd row_scale;  // 1 / max_j |K_ij|: the residual norm of GMRES is on S (b - K x)
+  std::unique_ptr<BoomerAmg> amg;
+
+  // z = M r, M = P^-1 T ~ K^-1 with P = [A_g B_g^T; 0 -Shat] ~ T K (block upper triangular).
+  void precondition(const Eigen::VectorXd& r, Eigen::VectorXd& z) const {
+    const Eigen::Index np = r.size() - n_u;
+    z.resize(r.size());
+    z.tail(np) = -r.tail(np).cwiseQuotient(schur);
+    const Eigen::VectorXd ru = r.head(n_u) + Bt * g_winv.cwiseProduct(r.tail(np)) - Bt_g * z.tail(np);
+    amg->apply(ru.data(), z.data());
+  }
+#endif
 };
 
-SparseDirectSolver::SparseDirectSolver(LinearSolver kind) : kind_(kind), impl_(std::make_unique<Impl>()) {
+SparseSolver::SparseSolver(LinearSolver kind, IterativeOptions iterative)
+    : kind_(kind), iterative_(iterative), impl_(std::make_unique<Impl>()) {
+  if (kind_ == LinearSolver::kAmg) {
+#ifndef SIGMAHEART_FEM_HAVE_HYPRE
+    throw std::invalid_argument("linear solver amg requested but sigmaheart was built without hypre (libhypre-dev)");
+#else
+    if (const std::string m = iterative_.validate(); !m.empty()) throw std::invalid_argument("IterativeOptions: " + m);
+    return;
+#endif
+  }
 #ifndef SIGMAHEART_FEM_HAVE_UMFPACK
   if (kind_ == LinearSolver::kUmfPack)
     throw std::invalid_argument("linear solver umfpack requested but sigmaheart was built without SuiteSparse");
@@ -33,9 +267,84 @@ SparseDirectSolver::SparseDirectSolver(LinearSolver kind) : kind_(kind), impl_(s
 #endif
 }
 
-SparseDirectSolver::~SparseDirectSolver() = default;
+SparseSolver::~SparseSolver() = default;
 
-bool SparseDirectSolver::factorize(const SparseMatrixInt& A) {
+void SparseSolver::set_saddle_point(int n_u) {
+  if (n_u < 0 || n_u % 3 != 0)
+    throw std::invalid_argument("set_saddle_point: n_u must be a non-negative multiple of 3 (got " + std::to_string(n_u) + ")");
+#ifdef SIGMAHEART_FEM_HAVE_HYPRE
+  impl_->n_u = n_u;
+#endif
+}
+
+bool SparseSolver::factorize(const SparseMatrixInt& A) {
+#ifdef SIGMAHEART_FEM_HAVE_HYPRE
+  if (kind_ == LinearSolver::kAmg) {
+    Impl& m = *impl_;
+    if (m.n_u < 0 || m.n_u > A.rows() || A.rows() != A.cols()) return false;
+    const auto t0 = Clock::now();
+    const Eigen::Index n = A.rows(), nu = m.n_u, np = n - nu;
+    m.amg.reset();
+    m.K = A;
+    const RowMatrix Auu = A.topLeftCorner(nu, nu);
+    m.Bt = A.topRightCorner(nu, np);
+    const RowMatrix B = A.bottomLeftCorner(np, nu);
+    const RowMatrix C = A.bottomRightCorner(np, np);
+    const Eigen::VectorXd dA = Auu.diagonal();
+    if (!dA.allFinite() || (dA.array() == 0.0).any()) return false;
+    // W = diag(B |diag(A)|^-1 B^T): the diagonal Schur complement of SIMPLE (Elman, Howle, Shadid,
+    // Shuttleworth & Tuminaro 2008, J. Comput. Phys. 227:1790, s.3), spectrally a lumped pressure
+    // mass matrix over the local shear stiffness (the Schur complement approximation of Elman,
+    // Silvester & Wathen 2014, Finite Elements and Fast Iterative Solvers, 2nd ed., s.9.2), here
+    // without assembly information and following the active and viscous stiffening.
+    auto simple_diagonal = [&](const Eigen::VectorXd& d) {
+      Eigen::VectorXd w(np);
+      const Eigen::VectorXd dinv = d.cwiseAbs().cwiseInverse();
+      for (Eigen::Index i = 0; i < np; ++i) {
+        double s = 0.0;
+        for (RowMatrix::InnerIterator it(B, i); it; ++it) s += it.value() * it.value() * dinv[it.col()];
+        w[i] = s > 0 ? s : 1.0;
+      }
+      return w;
+    };
+    // The displacement block alone can be indefinite: the pressure's geometric stiffness
+    // -p J (F^-T (x) F^-T - ...) softens dilatations and local rotations (Land problem 2 after one
+    // Newton step at 2 kPa, K = 1: 24 negative pivots of 2493), and AMG then converges slowly.
+    // With augmentation g > 0 the preconditioner is built on the augmented Lagrangian form T K
+    // (Benzi & Olshanskii 2006, SIAM J. Sci. Comput. 28:2095; Fortin & Glowinski 1983), whose block
+    // A_g = A + g B^T W^-1 B stiffens the dilatations; M = P^-1 T with P ~ T K is then a right
+    // preconditioner of K itself. Measured (docs/models.md s.4.4): g = 1 cuts GMRES iterations by
+    // 2-5x, but B^T W^-1 B couples the second ring of P2 nodes and has ~7x the nonzeros of A (9.3M
+    // against 1.3M on the medium lv-3d mesh), so each V-cycle costs more than it saves: default 0.
+    const double gam = iterative_.augmentation;
+    const Eigen::VectorXd W = simple_diagonal(dA);
+    m.g_winv = gam * W.cwiseInverse();
+    const RowMatrix Ag = gam > 0 ? RowMatrix(Auu + RowMatrix(m.Bt * m.g_winv.asDiagonal() * B)) : Auu;
+    m.Bt_g = gam > 0 ? RowMatrix(m.Bt + RowMatrix(m.Bt * m.g_winv.asDiagonal() * C)) : m.Bt;
+    // Shat = diag(B |diag(A_g)|^-1 B^T) - diag(C) ~ -(C - B A_g^-1 B_g^T), the SIMPLE diagonal of T K.
+    m.schur = simple_diagonal(Ag.diagonal()) - C.diagonal();
+    for (Eigen::Index i = 0; i < np; ++i)
+      if (!(m.schur[i] > 0)) m.schur[i] = W[i];
+    m.row_scale.resize(n);
+    {
+      const RowMatrix Kr = A;
+      for (Eigen::Index i = 0; i < n; ++i) {
+        double mx = 0.0;
+        for (RowMatrix::InnerIterator it(Kr, i); it; ++it) mx = std::max(mx, std::abs(it.value()));
+        m.row_scale[i] = mx > 0 ? 1.0 / mx : 1.0;
+      }
+    }
+    m.amg = std::make_unique<BoomerAmg>(Ag, iterative_.strong_threshold);
+    ++stats_.setups;
+    stats_.setup_seconds += seconds_since(t0);
+    if (!m.amg->ok()) {
+      m.amg.reset();
+      return false;
+    }
+    stats_.amg_levels = m.amg->levels();
+    return true;
+  }
+#endif
 #ifdef SIGMAHEART_FEM_HAVE_UMFPACK
   if (kind_ == LinearSolver::kUmfPack) {
     if (!impl_->analysed) {
@@ -54,14 +363,98 @@ bool SparseDirectSolver::factorize(const SparseMatrixInt& A) {
   return impl_->lu.info() == Eigen::Success;
 }
 
-Eigen::VectorXd SparseDirectSolver::solve(const Eigen::VectorXd& b) {
+Eigen::VectorXd SparseSolver::solve(const Eigen::VectorXd& b) {
+#ifdef SIGMAHEART_FEM_HAVE_HYPRE
+  if (kind_ == LinearSolver::kAmg) {
+    const Impl& m = *impl_;
+    const Eigen::Index n = b.size();
+    if (!m.amg || n != m.K.rows()) return Eigen::VectorXd::Constant(n, std::numeric_limits<double>::quiet_NaN());
+    const auto t0 = Clock::now();
+    // Restarted GMRES with right preconditioning (Saad 2003, Iterative Methods for Sparse Linear
+    // Systems, 2nd ed., alg. 9.5) on the row-scaled system S K x = S b (S = row_scale): the
+    // minimised residual is S (b - K x), in which force and volume rows weigh alike.
+    const Eigen::VectorXd& S = m.row_scale;
+    const Eigen::VectorXd sb = S.cwiseProduct(b);
+    const double bnorm = sb.norm();
+    Eigen::VectorXd x = Eigen::VectorXd::Zero(n);
+    ++stats_.solves;
+    stats_.last_iterations = 0;
+    stats_.last_relative_residual = 0.0;
+    if (bnorm == 0.0) return x;
+    if (!std::isfinite(bnorm)) return Eigen::VectorXd::Constant(n, std::numeric_limits<double>::quiet_NaN());
+    const double target = iterative_.relative_tolerance * bnorm;
+    const int mr = iterative_.restart;
+    Eigen::MatrixXd V(n, mr + 1), Z(n, mr);
+    Eigen::MatrixXd H = Eigen::MatrixXd::Zero(mr + 1, mr);
+    Eigen::VectorXd cs(mr), sn(mr), g(mr + 1), z, w;
+    Eigen::VectorXd r = sb;  // S (b - K x) at x = 0
+    double beta = bnorm;
+    int total = 0;
+    bool converged = false;
+    while (!converged && total < iterative_.max_iterations) {
+      V.col(0) = r / beta;
+      g.setZero();
+      g(0) = beta;
+      H.setZero();
+      int j = 0;
+      for (; j < mr && total < iterative_.max_iterations; ++j) {
+        // w = S K P^-1 v with v = V_j (right preconditioning of the scaled operator S K is
+        // P^-1 applied to S^-1 v).
+        m.precondition(V.col(j).cwiseQuotient(S), z);
+        Z.col(j) = z;
+        w = S.cwiseProduct(m.K * z);
+        for (int i = 0; i <= j; ++i) {  // modified Gram-Schmidt
+          H(i, j) = V.col(i).dot(w);
+          w -= H(i, j) * V.col(i);
+        }
+        H(j + 1, j) = w.norm();
+        if (H(j + 1, j) > 0) V.col(j + 1) = w / H(j + 1, j);
+        for (int i = 0; i < j; ++i) {  // earlier Givens rotations
+          const double t = cs(i) * H(i, j) + sn(i) * H(i + 1, j);
+          H(i + 1, j) = -sn(i) * H(i, j) + cs(i) * H(i + 1, j);
+          H(i, j) = t;
+        }
+        const double d = std::hypot(H(j, j), H(j + 1, j));
+        cs(j) = d > 0 ? H(j, j) / d : 1.0;
+        sn(j) = d > 0 ? H(j + 1, j) / d : 0.0;
+        H(j, j) = d;
+        H(j + 1, j) = 0.0;
+        g(j + 1) = -sn(j) * g(j);
+        g(j) = cs(j) * g(j);
+        ++total;
+        if (std::abs(g(j + 1)) <= target || !(H(j, j) > 0)) {
+          ++j;
+          break;
+        }
+      }
+      // x += Z y, H(0:j, 0:j) y = g(0:j).
+      const Eigen::VectorXd y =
+          H.topLeftCorner(j, j).triangularView<Eigen::Upper>().solve(g.head(j));
+      x += Z.leftCols(j) * y;
+      r = S.cwiseProduct(b - m.K * x);
+      beta = r.norm();
+      if (!std::isfinite(beta)) break;
+      converged = beta <= target;
+      if (!converged && j > 0 && !(H(j - 1, j - 1) > 0)) break;  // breakdown without convergence
+    }
+    stats_.last_iterations = total;
+    stats_.iterations += total;
+    stats_.last_relative_residual = beta / bnorm;
+    stats_.solve_seconds += seconds_since(t0);
+    if (!converged) return Eigen::VectorXd::Constant(n, std::numeric_limits<double>::quiet_NaN());
+    return x;
+  }
+#endif
 #ifdef SIGMAHEART_FEM_HAVE_UMFPACK
   if (kind_ == LinearSolver::kUmfPack) return impl_->umf.solve(b);
 #endif
   return impl_->lu.solve(b);
 }
 
-long long SparseDirectSolver::factor_nonzeros() {
+long long SparseSolver::factor_nonzeros() {
+#ifdef SIGMAHEART_FEM_HAVE_HYPRE
+  if (kind_ == LinearSolver::kAmg) return impl_->amg ? impl_->amg->operator_nonzeros() : 0;
+#endif
 #ifdef SIGMAHEART_FEM_HAVE_UMFPACK
   if (kind_ == LinearSolver::kUmfPack)
     return static_cast<long long>(impl_->umf.matrixL().nonZeros() + impl_->umf.matrixU().nonZeros());

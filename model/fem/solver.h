@@ -1,35 +1,81 @@
-// Sparse direct solver for the Newton systems: UMFPACK (SuiteSparse) when sigmaheart was built
-// with it, Eigen's SparseLU otherwise. Symbolic analysis once per pattern, numeric factorisation
-// per call (the pattern of the mechanics tangent never changes).
+// Sparse linear solvers for the Newton systems of the mechanics (docs/models.md s.4.4):
+//  - direct: UMFPACK (SuiteSparse) when sigmaheart was built with it, Eigen's SparseLU otherwise.
+//    Symbolic analysis once per pattern, numeric factorisation per factorize() (the pattern of the
+//    mechanics tangent never changes).
+//  - iterative (kAmg, when built with hypre): restarted GMRES right-preconditioned by a block
+//    upper-triangular preconditioner of the Taylor-Hood saddle point, one BoomerAMG V-cycle on the
+//    displacement block and a diagonal Schur complement on the pressure block (solver.cpp says which
+//    literature). It needs the block layout (set_saddle_point) and factorize() builds the
+//    preconditioner instead of factors; solve() then solves with the matrix given to factorize().
 #pragma once
 
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 
 #include <memory>
+#include <string>
 
 namespace sigmaheart::model::fem {
 
-enum class LinearSolver { kAuto, kSparseLU, kUmfPack };
+enum class LinearSolver { kAuto, kSparseLU, kUmfPack, kAmg };
 
-class SparseDirectSolver {
+// Whether `kind` can be used in this build (kUmfPack needs SuiteSparse, kAmg needs hypre).
+bool linear_solver_available(LinearSolver kind);
+
+// Options of the iterative solver (kAmg).
+struct IterativeOptions {
+  double relative_tolerance = 1e-10;  // on the row-equilibrated residual, relative to the rhs
+  int max_iterations = 1000;          // GMRES iterations (= preconditioner applications) per solve
+  int restart = 60;                   // GMRES restart length (Krylov vectors kept)
+  // BoomerAMG strength threshold; 0.25 took the fewest iterations on the lv-3d tangents (medium
+  // mesh: 76 against 90 at 0.5) with the smallest hierarchy (1.3x the tangent's nonzeros).
+  double strong_threshold = 0.25;
+  double augmentation = 0.0;          // g >= 0 of the augmented Lagrangian block A + g B^T W^-1 B (solver.cpp)
+  std::string validate() const;       // empty when valid
+};
+
+// Statistics of the iterative solver since construction (zeros for the direct solvers).
+struct IterativeStats {
+  int setups = 0;                    // preconditioner set-ups (factorize() calls)
+  long long solves = 0;              // solve() calls
+  long long iterations = 0;          // GMRES iterations over all solves
+  int last_iterations = 0;           // of the last solve
+  double last_relative_residual = 0; // scaled residual / scaled rhs of the last solve
+  int amg_levels = 0;                // of the last set-up
+  double setup_seconds = 0, solve_seconds = 0;
+};
+
+class SparseSolver {
  public:
-  // Throws std::invalid_argument when kUmfPack is requested but not built in.
-  explicit SparseDirectSolver(LinearSolver kind = LinearSolver::kAuto);
-  ~SparseDirectSolver();
-  SparseDirectSolver(const SparseDirectSolver&) = delete;
-  SparseDirectSolver& operator=(const SparseDirectSolver&) = delete;
+  // Throws std::invalid_argument when kUmfPack or kAmg is requested but not built in, or when the
+  // iterative options are invalid.
+  explicit SparseSolver(LinearSolver kind = LinearSolver::kAuto, IterativeOptions iterative = {});
+  ~SparseSolver();
+  SparseSolver(const SparseSolver&) = delete;
+  SparseSolver& operator=(const SparseSolver&) = delete;
 
-  // false when the matrix is (numerically) singular.
+  // Block layout of the matrices to come (kAmg only; ignored by the direct solvers): unknowns
+  // [0, n_u) are displacements, 3 per node, node-major; [n_u, n) are pressures. Dirichlet rows and
+  // columns are identity. std::invalid_argument when n_u is negative or not a multiple of 3.
+  void set_saddle_point(int n_u);
+
+  // Direct: LU factorisation; kAmg: the preconditioner of A (kept with a copy of A). false when the
+  // matrix is (numerically) singular or, for kAmg, set_saddle_point was not called or hypre failed.
   bool factorize(const Eigen::SparseMatrix<double, Eigen::ColMajor, int>& A);
+  // Solution of A x = b for the A of the last factorize(). kAmg: a vector of NaN when GMRES did not
+  // reach the tolerance within max_iterations (callers treat a non-finite update as a failure).
   Eigen::VectorXd solve(const Eigen::VectorXd& b);
-  // Nonzeros of the L and U factors of the last factorisation (memory indicator).
+  // Nonzeros of the L and U factors of the last factorisation (memory indicator); for kAmg the
+  // nonzeros of the operators of all AMG levels.
   long long factor_nonzeros();
   LinearSolver kind() const { return kind_; }
+  const IterativeStats& iterative_stats() const { return stats_; }
 
  private:
   struct Impl;
   LinearSolver kind_;
+  IterativeOptions iterative_;
+  IterativeStats stats_;
   std::unique_ptr<Impl> impl_;
 };
 
