@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <set>
+#include <utility>
 
 namespace sigmaheart::app {
 
@@ -146,6 +147,20 @@ void parse_observations(const Config& config, const ConfigNode& obs, Personalize
   if (!(tr.times(0) >= 0.0)) file_node.fail("frame times must start at or after 0");
 }
 
+// The parameters of the per-segment family that config key `key` names and their segment numbers;
+// an InputError at the key when it names none.
+std::pair<std::vector<int>, std::vector<int>> family_members(const Config& config, const ConfigNode& est,
+                                                            const std::string& key,
+                                                            const model::ParameterSpace& space) {
+  std::vector<int> members = regional_family(space, key), segments;
+  if (members.empty()) {
+    throw InputError(est.key_location(key), "'" + key + "' is not a per-segment parameter family of " +
+                                                config.simulator.model + " (e.g. sigma0, Td, stiff, scar)");
+  }
+  for (int i : members) segments.push_back(space[i].segment);
+  return {members, segments};
+}
+
 // Zones (`<family>: {zones: {name: [segments]}}`) tie segments of a family to one parameter
 // `<family>_<name>`; they change the parameter space the other keys are read against.
 void parse_zones(const Config& config, const ConfigNode& est, PersonalizeProblem& out) {
@@ -154,13 +169,7 @@ void parse_zones(const Config& config, const ConfigNode& est, PersonalizeProblem
     const ConfigNode node = est[key];
     if (!node.is_map() || !node.has("zones")) continue;
     if (node.has("segments")) node.fail("give either segments: or zones:, not both");
-    const std::vector<int> members = regional_family(inner, key);
-    if (members.empty()) {
-      throw InputError(est.key_location(key), "'" + key + "' is not a per-segment parameter family of " +
-                                                  config.simulator.model + "; zones: needs one (e.g. sigma0)");
-    }
-    std::vector<int> available;
-    for (int i : members) available.push_back(inner[i].segment);
+    const auto [members, available] = family_members(config, est, key, inner);
     const ConfigNode zones = node["zones"];
     if (!zones.is_map() || zones.size() == 0) zones.fail("expected a map of zone name -> list of segments");
     std::vector<int> used;
@@ -198,13 +207,7 @@ void parse_estimate(const Config& config, const ConfigNode& est, PersonalizeProb
         out.families.push_back(key);
       }
     } else if (node.has("segments")) {
-      const std::vector<int> members = regional_family(space, key);
-      if (members.empty()) {
-        throw InputError(est.key_location(key), "'" + key + "' is not a per-segment parameter family of " +
-                                                    config.simulator.model + " (e.g. sigma0, Td, stiff, scar)");
-      }
-      std::vector<int> available;
-      for (int i : members) available.push_back(space[i].segment);
+      const auto [members, available] = family_members(config, est, key, space);
       for (int s : parse_segments(node["segments"], available)) {
         const int idx = *space.find(space[members.front()].family, s);
         out.prior.parameters.push_back(bounded_by_the_model(parse_estimated_parameter(space[idx], node), space[idx]));
