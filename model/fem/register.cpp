@@ -1,6 +1,8 @@
 #include "model/fem/register.h"
 
 #include <memory>
+#include <string>
+#include <vector>
 
 namespace sigmaheart::model::fem {
 
@@ -87,6 +89,25 @@ LeftVentricle3DOptions read_lv3d_options(const OptionReader& node) {
   return o;
 }
 
+// Presets of lv-3d (docs/models.md s.4.8, "Presets"). `healthy`: every segment's contractility
+// 90 kPa (default 80) and a faster contraction rate k_ATP 17 1/s (default 8), tuned on the coarse
+// mesh with `dt` 20 ms and the healthy eikonal activation so that the periodic beat lies in the
+// adult ranges of docs/models.md s.7 (EDV 147.8 mL, ESV 52.8 mL, EF 64.3 %, peak 130.4 mmHg,
+// dP/dt max 1298 mmHg/s, EDP 6.9 mmHg, aortic 127.1/71.9 mmHg; tests/model/fem/electromechanics_test.cpp).
+namespace {
+
+std::vector<Preset> lv3d_presets() {
+  Preset healthy{"healthy",
+                 "healthy adult beat on the coarse mesh with healthy activation: sigma0_XX 90 kPa, k_ATP 17 1/s "
+                 "(docs/models.md s.4.8)",
+                 {{"k_ATP", 17.0}}};
+  for (int k = 1; k <= kAhaSegments; ++k)
+    healthy.values.emplace_back(std::string("sigma0_") + (k < 10 ? "0" : "") + std::to_string(k), 9.0e4);
+  return {healthy};
+}
+
+}  // namespace
+
 void register_fem_models(ModelRegistry& registry) {
   registry.add(ModelSetup{
       "lv-3d",
@@ -99,7 +120,7 @@ void register_fem_models(ModelRegistry& registry) {
                             return std::make_unique<LeftVentricle3D>(options, p);
                           });
       },
-      {}});
+      lv3d_presets()});
 }
 
 }  // namespace sigmaheart::model::fem
