@@ -162,6 +162,11 @@ EnsembleResult Ensemble::map_rows(
 }
 
 EnsembleResult Ensemble::evaluate(const Eigen::MatrixXd& thetas) {
+  return evaluate(thetas, Eigen::VectorXd(), false);
+}
+
+EnsembleResult Ensemble::evaluate(const Eigen::MatrixXd& thetas, const Eigen::VectorXd& from,
+                                  bool produce) {
   const int inputs = pool_->model(0).input_size();
   if (thetas.cols() != inputs) {
     std::ostringstream s;
@@ -169,12 +174,25 @@ EnsembleResult Ensemble::evaluate(const Eigen::MatrixXd& thetas) {
       << thetas.cols();
     throw std::invalid_argument(s.str());
   }
-  const int width = static_cast<int>(pool_->model(0).outputs().size());
-  return map_rows(static_cast<int>(thetas.rows()), width,
-                  [&](int m, int w, Eigen::Ref<Eigen::VectorXd> z) {
-                    const Eigen::VectorXd theta = thetas.row(m).transpose();
-                    return pool_->model(w).evaluate(theta, z);
-                  });
+  const int outputs = static_cast<int>(pool_->model(0).outputs().size());
+  const bool warm = produce || from.size() > 0;
+  const int extra = produce ? pool_->model(0).warm_start_size() : 0;
+  EnsembleResult result = map_rows(
+      static_cast<int>(thetas.rows()), outputs + extra,
+      [&](int m, int w, Eigen::Ref<Eigen::VectorXd> row) {
+        const Eigen::VectorXd theta = thetas.row(m).transpose();
+        if (!warm) return pool_->model(w).evaluate(theta, row);
+        Eigen::VectorXd own;
+        const model::Status st = pool_->model(w).evaluate_warm(theta, row.head(outputs), from,
+                                                               produce ? &own : nullptr);
+        if (produce && own.size() == extra) row.tail(extra) = own;
+        return st;
+      });
+  if (extra > 0) {
+    result.warm = result.Z.rightCols(extra);
+    result.Z = result.Z.leftCols(outputs).eval();
+  }
+  return result;
 }
 
 }  // namespace sigmaheart::estimation

@@ -52,6 +52,18 @@ class ForwardModel {
   virtual model::Status evaluate(const Eigen::Ref<const Eigen::VectorXd>& theta,
                                  Eigen::Ref<Eigen::VectorXd> z) = 0;
   virtual std::unique_ptr<ForwardModel> clone() const = 0;
+
+  // Warm starts (model::Simulator::run_warm; docs/estimation.md s.3.8): evaluate() starting from
+  // the warm start `from` of an earlier evaluation (empty: cold), writing this evaluation's own to
+  // `produce` (warm_start_size() entries, all zero when it has none). Default: no warm starts.
+  virtual int warm_start_size() const { return 0; }
+  virtual model::Status evaluate_warm(const Eigen::Ref<const Eigen::VectorXd>& theta,
+                                      Eigen::Ref<Eigen::VectorXd> z, const Eigen::VectorXd& from,
+                                      Eigen::VectorXd* produce) {
+    (void)from;
+    if (produce) *produce = Eigen::VectorXd::Zero(warm_start_size());
+    return evaluate(theta, z);
+  }
 };
 
 enum class Backend { kSerial, kThreads, kMpi };
@@ -91,6 +103,9 @@ struct EnsembleOptions {
 struct EnsembleResult {
   Eigen::MatrixXd Z;                  // members x outputs; rows of failed members are NaN
   std::vector<model::Status> status;  // one per member
+  // evaluate(thetas, from, true): members x warm_start_size(), each member's own warm start (NaN
+  // rows for failed members, zero rows where a member has none); else empty.
+  Eigen::MatrixXd warm;
   int failures() const;
   std::vector<int> failed_members() const;
 };
@@ -102,6 +117,11 @@ class Ensemble {
   int workers() const;
   // thetas: members x inputs (one member per row).
   EnsembleResult evaluate(const Eigen::MatrixXd& thetas);
+  // The same, every member starting from the warm start `from` (empty: cold), and with `produce`
+  // each member's own warm start in EnsembleResult::warm. A member depends only on its theta and
+  // `from`, so the numbers stay independent of threads, ranks and hand-out; the warm starts travel
+  // in the members' rows, so they are gathered over ranks and kept in the checkpoint like z.
+  EnsembleResult evaluate(const Eigen::MatrixXd& thetas, const Eigen::VectorXd& from, bool produce);
 
   // Generic form for estimators with their own member task (the ROUKF advances model states):
   // task(member, worker) runs once per member, worker in [0, workers()), each worker on one thread

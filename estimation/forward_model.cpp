@@ -77,7 +77,17 @@ Eigen::VectorXd SimulatorForwardModel::full_theta(
 
 model::Status SimulatorForwardModel::evaluate(const Eigen::Ref<const Eigen::VectorXd>& theta,
                                               Eigen::Ref<Eigen::VectorXd> z) {
+  return evaluate_warm(theta, z, Eigen::VectorXd(), nullptr);
+}
+
+int SimulatorForwardModel::warm_start_size() const { return simulator_->warm_start_size(); }
+
+model::Status SimulatorForwardModel::evaluate_warm(const Eigen::Ref<const Eigen::VectorXd>& theta,
+                                                   Eigen::Ref<Eigen::VectorXd> z,
+                                                   const Eigen::VectorXd& from,
+                                                   Eigen::VectorXd* produce) {
   using model::Status;
+  if (produce) *produce = Eigen::VectorXd::Zero(warm_start_size());
   using model::StatusCode;
   if (theta.size() != input_size() || z.size() != observer_->size()) {
     std::ostringstream s;
@@ -89,7 +99,7 @@ model::Status SimulatorForwardModel::evaluate(const Eigen::Ref<const Eigen::Vect
   if (const std::string bad = simulator_->parameters().check(full); !bad.empty()) {
     return Status::Error(StatusCode::kOutOfBounds, "parameters: " + bad);
   }
-  last_run_ = simulator_->run(full);
+  last_run_ = simulator_->run_warm(full, from, produce);
   if (!last_run_.status.ok()) {
     return Status::Error(last_run_.status.code,
                          "simulator " + simulator_->name() + ": " + last_run_.status.message);

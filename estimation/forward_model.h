@@ -36,6 +36,10 @@ class SimulatorForwardModel final : public ForwardModel {
   model::Status evaluate(const Eigen::Ref<const Eigen::VectorXd>& theta,
                          Eigen::Ref<Eigen::VectorXd> z) override;
   std::unique_ptr<ForwardModel> clone() const override;
+  int warm_start_size() const override;
+  model::Status evaluate_warm(const Eigen::Ref<const Eigen::VectorXd>& theta,
+                              Eigen::Ref<Eigen::VectorXd> z, const Eigen::VectorXd& from,
+                              Eigen::VectorXd* produce) override;
 
   // The full parameter vector evaluate() would run for theta_estimated.
   Eigen::VectorXd full_theta(const Eigen::Ref<const Eigen::VectorXd>& theta_estimated) const;

@@ -426,6 +426,7 @@ struct UtCalibration::Start {
   std::optional<UtFit> fit;        // the model there, when already run
   std::optional<UtFit> prior_fit;  // the model at the prior mean, when already run
   int max_iterations = 0;          // > 0: at most this many (a probe), else the options' count
+  Eigen::VectorXd warm;            // the model's warm start at eta (with fit; empty: none)
 };
 
 UtSummary UtCalibration::run() {
@@ -462,7 +463,9 @@ UtSummary UtCalibration::run_global() {
     if (options_.progress) options_.progress(UtProgress{-1, 0, done, total});
   };
   Ensemble ensemble(model_, eo);
-  const EnsembleResult screen = ensemble.evaluate(theta);
+  // In mode map the local runs start warm from their screened point (docs/estimation.md s.3.8).
+  const bool warm_starts = options_.mode == UtMode::kMap && model_.warm_start_size() > 0;
+  const EnsembleResult screen = ensemble.evaluate(theta, Eigen::VectorXd(), warm_starts);
   std::vector<UtFit> fits;
   std::vector<double> phi;
   for (Eigen::Index i = 0; i < eta.rows(); ++i) {
@@ -483,8 +486,10 @@ UtSummary UtCalibration::run_global() {
   for (int k = 0; k < g.keep; ++k) {
     const auto i = static_cast<size_t>(order[static_cast<size_t>(k)]);
     const auto row = static_cast<Eigen::Index>(i);
-    UtSummary s = run_local(
-        Start{eta.row(row).transpose(), fits[i], fits[0], probing ? g.probe_iterations : 0});
+    UtSummary s = run_local(Start{eta.row(row).transpose(), fits[i], fits[0],
+                                  probing ? g.probe_iterations : 0,
+                                  warm_starts ? Eigen::VectorXd(screen.warm.row(row).transpose())
+                                              : Eigen::VectorXd()});
     simulations += s.simulations;
     failures += s.failures;
     UtStart st;
@@ -570,10 +575,17 @@ UtSummary UtCalibration::run_local(const Start& start) {
     summary.termination = UtTermination::kAbortedFailures;
     summary.message = why;
   };
-  // One forward run (a centre or a candidate), counted and its failure recorded.
-  auto run_one = [&](const Eigen::VectorXd& eta, int it) {
+  // Warm starts (docs/estimation.md s.3.8), mode map only: every run starts from the warm start of
+  // the current centre, and the runs that may become a centre hand on their own.
+  const bool warm_starts = map && model_.warm_start_size() > 0;
+  // One forward run (a centre or a candidate), counted and its failure recorded; from a warm start
+  // `from` (empty: cold), its own written to `produce` when not null.
+  auto run_one = [&](const Eigen::VectorXd& eta, int it, const Eigen::VectorXd& from = Eigen::VectorXd(),
+                     Eigen::VectorXd* produce = nullptr) {
     const Eigen::VectorXd theta = to_theta(eta);
-    const EnsembleResult one = ensemble.evaluate(Eigen::MatrixXd(theta.transpose()));
+    const EnsembleResult one =
+        ensemble.evaluate(Eigen::MatrixXd(theta.transpose()), from, produce != nullptr);
+    if (produce) *produce = one.warm.row(0).transpose();
     summary.simulations += 1;
     summary.failures += one.failures();
     if (!one.status[0].ok()) summary.failed.push_back({it, 0, -1, theta, one.status[0]});
@@ -592,7 +604,8 @@ UtSummary UtCalibration::run_local(const Start& start) {
   std::vector<int> gave_up;
   auto sample = [&](int it, const Eigen::VectorXd& eta_c, const Eigen::MatrixXd& P_c,
                     UtIteration& rec, bool run_center, bool revertible = false,
-                    const Eigen::VectorXd* z_centre = nullptr) {
+                    const Eigen::VectorXd* z_centre = nullptr,
+                    const Eigen::VectorXd& warm_from = Eigen::VectorXd()) {
     gave_up.clear();
     rec.eta_center = eta_c;
     rec.P_center = P_c;
@@ -614,7 +627,7 @@ UtSummary UtCalibration::run_local(const Start& start) {
       for (int i = 0; i < r; ++i) thetas.row(i) = to_theta(eta_points.col(i)).transpose();
       if (with_center) thetas.row(r) = theta_c.transpose();
 
-      const EnsembleResult res = ensemble.evaluate(thetas);
+      const EnsembleResult res = ensemble.evaluate(thetas, warm_from, false);
       summary.simulations += static_cast<int>(thetas.rows());
       summary.failures += res.failures();
       if (with_center) {
@@ -712,7 +725,9 @@ UtSummary UtCalibration::run_local(const Start& start) {
   if (map) {
     // ---- kMap: damped Gauss-Newton on statistically linearised models (file comment). ----
     Eigen::VectorXd eta_c = start.eta;
-    UtFit fit_c = start.fit ? *start.fit : run_one(eta_c, 0);
+    Eigen::VectorXd warm_c = start.fit ? start.warm : Eigen::VectorXd();  // the centre's warm start
+    UtFit fit_c = start.fit ? *start.fit
+                            : run_one(eta_c, 0, Eigen::VectorXd(), warm_starts ? &warm_c : nullptr);
     first_center_fit = fit_c;
     double phi_c = objective.phi(fit_c, eta_c);
     const Eigen::MatrixXd P0inv = objective.P0.solve(Eigen::MatrixXd::Identity(p, p));
@@ -746,6 +761,7 @@ UtSummary UtCalibration::run_local(const Start& start) {
       Eigen::VectorXd g, eta_gn;
       Eigen::MatrixXd P_post;
       double lambda = 0.0, nu = 2.0;  // the damping of the step taken from this centre
+      Eigen::VectorXd warm_c;         // the centre's warm start
     };
     std::optional<Linearisation> lin;
     if (!fit_c.status.ok() || !std::isfinite(phi_c)) {
@@ -763,7 +779,7 @@ UtSummary UtCalibration::run_local(const Start& start) {
       phi_history.push_back(phi_c);
       Eigen::MatrixXd H, P_post;
       Eigen::VectorXd g, eta_gn;
-      if (sample(it, eta_c, P_c, rec, false, lin.has_value(), &fit_c.z)) {
+      if (sample(it, eta_c, P_c, rec, false, lin.has_value(), &fit_c.z, warm_c)) {
         const Moments mo = moments(rec);
         // z ~ A eta + b over the sigma points of the current posterior approximation.
         const Eigen::MatrixXd A = Eigen::LLT<Eigen::MatrixXd>(P_c).solve(mo.Ptz).transpose();  // m x p
@@ -790,7 +806,7 @@ UtSummary UtCalibration::run_local(const Start& start) {
         // Levenberg-Marquardt on the linearised Phi: H d = g with H = A^T A + (1 + lambda) P0^-1.
         H = A.transpose() * A + P0inv;
         g = A.transpose() * rw - P0inv * (eta_c - eta0);
-        lin = Linearisation{rec, eta_c, fit_c, phi_c, P_c, H, g, eta_gn, P_post, lambda, nu};
+        lin = Linearisation{rec, eta_c, fit_c, phi_c, P_c, H, g, eta_gn, P_post, lambda, nu, warm_c};
       } else if (!gave_up.empty() && lin) {
         // Sigma points at this centre still fail after the shrink retries: the step that reached
         // it is rejected like a failed candidate (back to the last linearised centre, lambda
@@ -812,6 +828,7 @@ UtSummary UtCalibration::run_local(const Start& start) {
         log_debug("UT: {}", action.describe());
         eta_c = lin->eta_c;
         fit_c = lin->fit_c;
+        warm_c = lin->warm_c;
         phi_c = lin->phi_c;
         P_c = lin->P_c;
         lin->rec.rejected += 1;
@@ -858,7 +875,8 @@ UtSummary UtCalibration::run_local(const Start& start) {
         }
         const Eigen::VectorXd eta_n = eta_c + d;
         current_attempt = candidate;
-        UtFit fit_n = run_one(eta_n, it);
+        Eigen::VectorXd warm_n;
+        UtFit fit_n = run_one(eta_n, it, warm_c, warm_starts ? &warm_n : nullptr);
         const double phi_n = objective.phi(fit_n, eta_n);
         if (std::isfinite(phi_n) && phi_n < phi_c) {
           // Gain ratio of the actual to the predicted decrease (Nielsen 1999, eq. 2.3 update).
@@ -874,6 +892,7 @@ UtSummary UtCalibration::run_local(const Start& start) {
           rec.eta_mean = eta_n;
           eta_c = eta_n;
           fit_c = std::move(fit_n);
+          warm_c = std::move(warm_n);
           phi_c = phi_n;
           P_c = P_post;
           relinearisations = 0;

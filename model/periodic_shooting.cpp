@@ -55,10 +55,80 @@ std::optional<VectorXd> gmres(const Apply& apply, const VectorXd& b, int kmax, d
 
 double max_abs(const VectorXd& v) { return v.size() == 0 ? 0.0 : v.cwiseAbs().maxCoeff(); }
 
+// The scale of each entry: its peak over the beat; an entry that is 0 all beat keeps scale 1.
+VectorXd entry_scales(const BeatOutcome& b, Eigen::Index n) {
+  VectorXd s = b.peak.size() == n && b.peak.allFinite() ? b.peak : VectorXd::Ones(n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    if (!(s(i) > 0.0)) s(i) = 1.0;
+    s(i) = std::max(s(i), std::numeric_limits<double>::min() / std::numeric_limits<double>::epsilon());
+  }
+  return s;
+}
+
+// J = I - dF/dx at x in the scales of the beat from x, by forward differences of fd_step scaled
+// units (n beats, not recorded, plus the beat from x). nullopt when a beat failed.
+std::optional<ShootingWarmStart> measure_warm_start(const VectorXd& x,
+                                                    const std::function<BeatOutcome(const VectorXd&)>& run,
+                                                    double fd_step) {
+  const Eigen::Index n = x.size();
+  const BeatOutcome b0 = run(x);
+  if (!b0.status.ok()) return std::nullopt;
+  ShootingWarmStart w;
+  w.start = x;
+  w.scale = entry_scales(b0, n);
+  w.jacobian = MatrixXd::Identity(n, n);
+  for (Eigen::Index j = 0; j < n; ++j) {
+    VectorXd xj = x;
+    xj(j) += fd_step * w.scale(j);
+    const BeatOutcome p = run(xj);
+    if (!p.status.ok()) return std::nullopt;
+    w.jacobian.col(j) -= (p.end - b0.end).cwiseQuotient(w.scale) / fd_step;
+  }
+  if (!w.jacobian.allFinite()) return std::nullopt;
+  return w;
+}
+
+}  // namespace
+
+Eigen::VectorXd ShootingWarmStart::pack() const {
+  const Eigen::Index n = start.size();
+  VectorXd flat(packed_size(static_cast<int>(n)));
+  flat << start, scale, jacobian.reshaped();
+  return flat;
+}
+
+std::optional<ShootingWarmStart> ShootingWarmStart::unpack(const Eigen::VectorXd& flat, int n) {
+  if (n <= 0 || flat.size() != packed_size(n) || !flat.allFinite()) return std::nullopt;
+  ShootingWarmStart w;
+  w.start = flat.head(n);
+  w.scale = flat.segment(n, n);
+  w.jacobian = flat.tail(static_cast<Eigen::Index>(n) * n).reshaped(n, n);
+  if (!(w.scale.array() > 0.0).all()) return std::nullopt;
+  return w;
+}
+
+namespace {
+ShootingResult solve_periodic_state(const VectorXd& x0, const BeatMap& beat,
+                                    const ShootingOptions& o, const ShootingWarmStart* warm);
 }  // namespace
 
 ShootingResult find_periodic_state(const VectorXd& x0, const BeatMap& beat,
-                                   const ShootingOptions& o) {
+                                   const ShootingOptions& o, const ShootingWarmStart* warm) {
+  ShootingResult res = solve_periodic_state(x0, beat, o, warm);
+  if (o.jacobian && res.status.ok()) {
+    res.warm = measure_warm_start(
+        res.start, [&](const VectorXd& x) {
+          ++res.beats;
+          return beat(x, false);
+        },
+        o.fd_step);
+  }
+  return res;
+}
+
+namespace {
+ShootingResult solve_periodic_state(const VectorXd& x0, const BeatMap& beat,
+                                    const ShootingOptions& o, const ShootingWarmStart* warm) {
   ShootingResult res;
   const Eigen::Index n = x0.size();
   auto run = [&](const VectorXd& start, bool record) {
@@ -73,10 +143,68 @@ ShootingResult find_periodic_state(const VectorXd& x0, const BeatMap& beat,
   };
 
   VectorXd x = x0;
-  BeatOutcome base = run(x, true);
-  for (int b = 1; base.status.ok() && b < o.min_beats; ++b) {
-    x = base.end;
+  BeatOutcome base;
+  bool started = false;  // x and base hold a recorded beat to go on from
+  if (warm && warm->start.size() == n && warm->scale.size() == n && warm->jacobian.rows() == n &&
+      warm->jacobian.cols() == n) {
+    // Chord steps from the warm start (see ShootingWarmStart): dx = S_w J_w^-1 S_w^-1 G(x), one
+    // beat each; the same stopping rule as the Newton steps below (a step below the tolerance is
+    // the last one, taken whole, and its beat is the periodic beat).
+    const Eigen::PartialPivLU<MatrixXd> lu(warm->jacobian);
+    constexpr int kChordSteps = 8;
+    x = warm->start;
     base = run(x, true);
+    started = base.status.ok();
+    for (int k = 0; started && k < kChordSteps && res.beats < o.max_beats; ++k) {
+      const VectorXd s = entry_scales(base, n);
+      const VectorXd g = base.end - x;
+      const VectorXd r = g.cwiseQuotient(s);
+      if (!r.allFinite()) break;
+      if (max_abs(r) == 0.0) {
+        res.correction = 0.0;
+        res.start = x;
+        res.status = Status::Ok();
+        return res;
+      }
+      const VectorXd dx = warm->scale.cwiseProduct(lu.solve(g.cwiseQuotient(warm->scale)));
+      if (!dx.allFinite()) break;
+      const double step = max_abs(dx.cwiseQuotient(s));
+      const VectorXd xt = x + dx;
+      BeatOutcome t = run(xt, true);
+      if (!t.status.ok()) {
+        base = run(x, true);  // the beat recorded last must be the one returned
+        started = base.status.ok();
+        break;
+      }
+      ++res.chord_steps;
+      if (step <= o.tolerance) {
+        res.correction = step;
+        res.start = xt;
+        res.status = Status::Ok();
+        return res;
+      }
+      const double rt = (t.end - xt).cwiseQuotient(s).norm();
+      if (!(rt <= 0.5 * r.norm())) {  // not contracting: Newton-Krylov from the better point
+        if (rt < r.norm()) {
+          x = xt;
+          base = std::move(t);
+        } else {
+          base = run(x, true);
+          started = base.status.ok();
+        }
+        break;
+      }
+      x = xt;
+      base = std::move(t);
+    }
+  }
+  if (!started) {  // cold: plain beats first (the fast modes decay)
+    x = x0;
+    base = run(x, true);
+    for (int b = 1; base.status.ok() && b < o.min_beats; ++b) {
+      x = base.end;
+      base = run(x, true);
+    }
   }
   if (!base.status.ok()) return fail(base.status, x);
 
@@ -189,11 +317,7 @@ ShootingResult find_periodic_state(const VectorXd& x0, const BeatMap& beat,
     // scale 1. Not the largest peak ever seen: one far trial beat (a watchdog step) inflated the
     // scale for the rest of the solve, and with it the finite-difference steps, which then
     // straddled a valve kink (census point 677 of the sphere stalled at |G| = 3.4e-5).
-    VectorXd s = base.peak.size() == n && base.peak.allFinite() ? base.peak : VectorXd::Ones(n);
-    for (Eigen::Index i = 0; i < n; ++i) {
-      if (!(s(i) > 0.0)) s(i) = 1.0;
-      s(i) = std::max(s(i), std::numeric_limits<double>::min() / std::numeric_limits<double>::epsilon());
-    }
+    const VectorXd s = entry_scales(base, n);
     const VectorXd r = (base.end - x).cwiseQuotient(s);  // G(x) = F(x) - x, scaled
     if (!r.allFinite()) {
       return fail(Status::Error(StatusCode::kNonFinite, "the beat map gave a non-finite state"), x);
@@ -294,5 +418,6 @@ ShootingResult find_periodic_state(const VectorXd& x0, const BeatMap& beat,
     << res.correction << " of its scale per beat (tolerance " << o.tolerance << ")";
   return fail(Status::Error(StatusCode::kNotPeriodic, m.str()), x);
 }
+}  // namespace
 
 }  // namespace sigmaheart::model

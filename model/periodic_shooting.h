@@ -24,6 +24,7 @@
 #include <Eigen/Core>
 
 #include <functional>
+#include <optional>
 
 namespace sigmaheart::model {
 
@@ -34,6 +35,26 @@ struct ShootingOptions {
   double fd_step = 1e-6;     // directional-derivative step in scaled units
   int max_krylov = 40;       // GMRES vectors per Newton step (one beat each)
   double krylov_tolerance = 1e-6;  // relative GMRES residual
+  // After a converged solve, also measure J = I - dF/dx at the periodic state in scaled units by
+  // forward differences (n more beats, not recorded), for a warm start of nearby solves.
+  bool jacobian = false;
+};
+
+// A warm start (docs/models.md s.2.1, "Warm starts"): the periodic state of a solve at nearby
+// parameters, its entry scales and J = I - dF/dx there in those scales. From it, a solve first
+// takes chord steps, Newton steps with this fixed J (the chord method: Kelley 1995, Iterative
+// Methods for Linear and Nonlinear Equations, SIAM, s.5.4.1): each costs one beat, and they
+// converge linearly with a rate of the order of the distance between the two parameter points.
+// A chord step that does not halve |G| hands over to the Newton-Krylov iteration of a cold solve.
+struct ShootingWarmStart {
+  Eigen::VectorXd start;   // the periodic state at t = 0
+  Eigen::VectorXd scale;   // its entries' scales
+  Eigen::MatrixXd jacobian;  // I - dF/dx at start, scaled (n x n)
+  // Flat form [start, scale, J column-major], 2n + n^2 entries, as carried between runs.
+  static int packed_size(int n) { return 2 * n + n * n; }
+  Eigen::VectorXd pack() const;
+  // nullopt when `flat` has the wrong size or is not finite (a failed run's NaN warm start).
+  static std::optional<ShootingWarmStart> unpack(const Eigen::VectorXd& flat, int n);
 };
 
 // One beat from `start` (the state at t = 0). `record` asks the caller to keep the trajectory of
@@ -51,13 +72,19 @@ struct ShootingResult {
   int beats = 0;          // beats integrated in total
   int newton_steps = 0;
   double correction = 0.0;  // scaled size of the last Newton correction, or of F(x) - x [-]
+  int chord_steps = 0;      // steps taken with a warm start's Jacobian
+  // With ShootingOptions::jacobian, after a converged solve: the warm start it offers (else empty).
+  std::optional<ShootingWarmStart> warm;
 };
 
 // Finds x with F(x) = x from x0. Entries are scaled by their peak over the current beat, so the
 // tolerance (and the finite-difference step) is relative to each entry's size in that beat. Fails (kNotPeriodic) when max_beats is spent,
 // or with the status of a recorded beat that failed (a failed Krylov or line-search beat only ends
 // that Newton step: the method falls back to a plain beat).
+// With `warm` (a warm start of the same model, the same n) the solve starts from warm->start with
+// chord steps instead of from x0 with plain beats; it converges to the same tolerance.
 ShootingResult find_periodic_state(const Eigen::VectorXd& x0, const BeatMap& beat,
-                                   const ShootingOptions& options);
+                                   const ShootingOptions& options,
+                                   const ShootingWarmStart* warm = nullptr);
 
 }  // namespace sigmaheart::model

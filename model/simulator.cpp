@@ -157,4 +157,11 @@ std::string closest_match(const std::string& word, const std::vector<std::string
   return best_d <= limit ? best : std::string{};
 }
 
+RunResult Simulator::run_warm(const Eigen::Ref<const Eigen::VectorXd>& theta,
+                              const Eigen::VectorXd& from, Eigen::VectorXd* produce) {
+  (void)from;
+  if (produce) *produce = Eigen::VectorXd::Zero(warm_start_size());
+  return run(theta);
+}
+
 }  // namespace sigmaheart::model

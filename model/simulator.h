@@ -148,6 +148,18 @@ class Simulator {
 
   // An independent copy with the same configuration; used for one thread or rank each.
   virtual std::unique_ptr<Simulator> clone() const = 0;
+
+  // Warm starts (docs/models.md s.2.1, "Warm starts"): a model that finds a periodic state can hand
+  // what it found on to a run at nearby parameters. warm_start_size() entries, opaque to the
+  // estimators; 0 (the default): the model takes none and run_warm() is run().
+  virtual int warm_start_size() const { return 0; }
+  // run() starting from `from`, the warm start of an earlier run of this model (empty, all zero or
+  // of the wrong size: from rest as run()), and, when `produce` is not null, writing this run's own
+  // warm start there (warm_start_size() entries, all zero when it has none, e.g. a failed run).
+  // Deterministic in (theta, from); the returned beat equals run()'s to within the model's
+  // periodic tolerance.
+  virtual RunResult run_warm(const Eigen::Ref<const Eigen::VectorXd>& theta,
+                             const Eigen::VectorXd& from, Eigen::VectorXd* produce);
 };
 
 // A simulator whose state can be stopped, saved, edited and resumed: what the ROUKF needs.

@@ -204,7 +204,8 @@ Status check_advance(const State& state, Eigen::Index state_size, double t_end) 
 RunResult run_periodic(const Shell& m, const SphereOptions& o, std::vector<Channel> channels,
                        State state,
                        const std::function<Status(State&, double, int*, int*)>& step_to,
-                       const std::function<Eigen::VectorXd(const State&)>& sample) {
+                       const std::function<Eigen::VectorXd(const State&)>& sample,
+                       const Eigen::VectorXd* warm_from, Eigen::VectorXd* warm_out) {
   RunResult result;
   result.trajectory.channels = std::move(channels);
   const double T = m.period;
@@ -264,7 +265,15 @@ RunResult run_periodic(const Shell& m, const SphereOptions& o, std::vector<Chann
   so.min_beats = o.min_beats;
   so.max_beats = o.max_beats;
   so.tolerance = o.periodic_tolerance;
-  const ShootingResult shot = find_periodic_state(state.x.head(nu), beat, so);
+  so.jacobian = warm_out != nullptr;
+  const int n = static_cast<int>(nu);
+  const std::optional<ShootingWarmStart> warm =
+      warm_from ? ShootingWarmStart::unpack(*warm_from, n) : std::nullopt;
+  const ShootingResult shot = find_periodic_state(state.x.head(nu), beat, so, warm ? &*warm : nullptr);
+  if (warm_out) {
+    *warm_out = shot.warm ? shot.warm->pack()
+                          : Eigen::VectorXd(Eigen::VectorXd::Zero(ShootingWarmStart::packed_size(n)));
+  }
   result.status = shot.status;
   result.info.beats = shot.beats;
   result.info.periodicity_change = shot.correction;

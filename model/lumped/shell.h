@@ -284,9 +284,13 @@ Status check_advance(const State& state, Eigen::Index state_size, double t_end);
 // the beat start is below numerics.periodic_tolerance (after min_beats), returning the last beat
 // on t in [0, period]. step_to(state, t1, &newton_iterations, &step_cuts) advances; sample(state)
 // gives the channel row.
+// warm_from / warm_out: Simulator::run_warm's `from` and `produce` (null: a cold run, none
+// produced); a warm start holds ShootingWarmStart::packed_size(n) entries, n the unknowns.
 RunResult run_periodic(const Shell& m, const SphereOptions& numerics, std::vector<Channel> channels,
                        State initial,
                        const std::function<Status(State&, double, int*, int*)>& step_to,
-                       const std::function<Eigen::VectorXd(const State&)>& sample);
+                       const std::function<Eigen::VectorXd(const State&)>& sample,
+                       const Eigen::VectorXd* warm_from = nullptr,
+                       Eigen::VectorXd* warm_out = nullptr);
 
 }  // namespace sigmaheart::model::lumped::shell

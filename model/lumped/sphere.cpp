@@ -19,6 +19,7 @@
 #include "model/lumped/sphere.h"
 
 #include "model/lumped/shell.h"
+#include "model/periodic_shooting.h"
 
 #include "model/bcs/active_law.h"
 #include "model/circulation/circulation.h"
@@ -355,11 +356,22 @@ Eigen::VectorXd LumpedSphere::sample(const State& state,
 }
 
 RunResult LumpedSphere::run(const Eigen::Ref<const Eigen::VectorXd>& theta) {
-  if (Status st = check_theta(theta); !st.ok()) return shell::failed_run(channels(), st);
+  return run_warm(theta, Eigen::VectorXd(), nullptr);
+}
+
+int LumpedSphere::warm_start_size() const { return ShootingWarmStart::packed_size(kUnknowns); }
+
+RunResult LumpedSphere::run_warm(const Eigen::Ref<const Eigen::VectorXd>& theta,
+                                 const Eigen::VectorXd& from, Eigen::VectorXd* produce) {
+  if (Status st = check_theta(theta); !st.ok()) {
+    if (produce) *produce = Eigen::VectorXd::Zero(warm_start_size());
+    return shell::failed_run(channels(), st);
+  }
   return shell::run_periodic(
       unpack(theta, index_), options_, channels(), initial_state(theta),
       [&](State& s, double t1, int* its, int* cuts) { return step_to(s, theta, t1, its, cuts); },
-      [&](const State& s) { return sample(s, theta); });
+      [&](const State& s) { return sample(s, theta); }, from.size() > 0 ? &from : nullptr,
+      produce);
 }
 
 }  // namespace sigmaheart::model::lumped

@@ -56,6 +56,10 @@ class LumpedSphere final : public SteppableSimulator {
   std::vector<Channel> channels() const override;
   RunResult run(const Eigen::Ref<const Eigen::VectorXd>& theta) override;
   std::unique_ptr<Simulator> clone() const override;
+  // The periodic state of the eight unknowns with the beat map's Jacobian (docs/models.md s.2.1).
+  int warm_start_size() const override;
+  RunResult run_warm(const Eigen::Ref<const Eigen::VectorXd>& theta, const Eigen::VectorXd& from,
+                     Eigen::VectorXd* produce) override;
 
   std::vector<Channel> state_layout() const override;
   State initial_state(const Eigen::Ref<const Eigen::VectorXd>& theta) override;

@@ -7,6 +7,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <optional>
 
 namespace sigmaheart::model {
 namespace {
@@ -119,6 +121,84 @@ TEST(PeriodicShooting, ABudgetTooSmallIsNotPeriodicAndAFailedBeatIsPassedOn) {
   const ShootingResult f = find_periodic_state(Eigen::Vector2d(0.0, 0.0), broken, ShootingOptions{});
   EXPECT_EQ(f.status.code, StatusCode::kDiverged);
   EXPECT_EQ(f.beats, 1);
+}
+
+
+// The cubic family of ConvergesOnANonlinearMapFromFarAway with its root at c^(1/3):
+// F(x) = (x_0 - 0.01 (x_0^3 - c), 0.999 x_1 - 0.001), fixed point (c^(1/3), -1).
+BeatMap cubic_map(double c) {
+  return [c](const Eigen::VectorXd& x, bool) {
+    BeatOutcome o;
+    o.end = Eigen::Vector2d(x(0) - 0.01 * (x(0) * x(0) * x(0) - c), 0.999 * x(1) - 0.001);
+    o.peak = x.cwiseAbs().cwiseMax(o.end.cwiseAbs());
+    return o;
+  };
+}
+
+TEST(PeriodicShooting, TheWarmStartCarriesTheFixedPointAndTheJacobianOfTheBeatMap) {
+  ShootingOptions o;
+  o.jacobian = true;
+  const ShootingResult r = find_periodic_state(Eigen::Vector2d(1.0, 5.0), cubic_map(8.0), o);
+  ASSERT_TRUE(r.status.ok()) << r.status.message;
+  ASSERT_TRUE(r.warm.has_value());
+  EXPECT_EQ(r.warm->start, r.start);
+  // I - dF/dx = diag(0.03 x_0^2, 0.001) at (2, -1), in scaled units (diagonal: scale-free);
+  // forward differences of 1e-6 scaled units: error ~ F'' h / 2 = 0.12 x 2e-6 / 2 on 0.12.
+  EXPECT_NEAR(r.warm->jacobian(0, 0), 0.12, 1e-5 * 0.12);
+  EXPECT_NEAR(r.warm->jacobian(1, 1), 0.001, 1e-5 * 0.001);
+  EXPECT_NEAR(r.warm->jacobian(0, 1), 0.0, 1e-12);
+  EXPECT_NEAR(r.warm->jacobian(1, 0), 0.0, 1e-12);
+  // The flat form round-trips exactly; a flat vector of the wrong size, with a NaN or all zero
+  // (what a failed run hands on) is no warm start.
+  const Eigen::VectorXd flat = r.warm->pack();
+  ASSERT_EQ(flat.size(), ShootingWarmStart::packed_size(2));
+  const std::optional<ShootingWarmStart> back = ShootingWarmStart::unpack(flat, 2);
+  ASSERT_TRUE(back.has_value());
+  EXPECT_EQ(back->pack(), flat);
+  EXPECT_FALSE(ShootingWarmStart::unpack(flat, 3).has_value());
+  Eigen::VectorXd nan = flat;
+  nan(5) = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(ShootingWarmStart::unpack(nan, 2).has_value());
+  EXPECT_FALSE(ShootingWarmStart::unpack(Eigen::VectorXd::Zero(flat.size()), 2).has_value());
+}
+
+TEST(PeriodicShooting, AWarmStartFromANearbyMapReachesTheSameFixedPointInFewerBeats) {
+  ShootingOptions o;
+  o.jacobian = true;
+  const ShootingResult near = find_periodic_state(Eigen::Vector2d(1.0, 5.0), cubic_map(8.0), o);
+  ASSERT_TRUE(near.warm.has_value());
+  o.jacobian = false;
+  const double c = 8.08;  // the root moves by 0.33 %
+  const ShootingResult cold = find_periodic_state(Eigen::Vector2d(1.0, 5.0), cubic_map(c), o);
+  const ShootingResult warm =
+      find_periodic_state(Eigen::Vector2d(1.0, 5.0), cubic_map(c), o, &*near.warm);
+  ASSERT_TRUE(cold.status.ok()) << cold.status.message;
+  ASSERT_TRUE(warm.status.ok()) << warm.status.message;
+  EXPECT_NEAR(warm.start(0), std::cbrt(c), 1e-6 * std::cbrt(c));
+  EXPECT_NEAR(warm.start(1), -1.0, 1e-6);
+  EXPECT_LE(warm.correction, o.tolerance);
+  // Only chord steps: the first beat, then one beat per step, linear rate ~ 0.33 % / 1 (3 steps
+  // from a start 6.6e-3 off reach 1e-6 scaled).
+  EXPECT_GE(warm.chord_steps, 1);
+  EXPECT_EQ(warm.newton_steps, 0);
+  EXPECT_LE(warm.beats, 1 + 4);
+  EXPECT_LT(warm.beats, cold.beats);
+}
+
+TEST(PeriodicShooting, AWarmStartFromAFarMapHandsOverToNewtonAndStillConverges) {
+  ShootingOptions o;
+  o.jacobian = true;
+  const ShootingResult far = find_periodic_state(Eigen::Vector2d(1.0, 5.0), cubic_map(8.0), o);
+  ASSERT_TRUE(far.warm.has_value());
+  o.jacobian = false;
+  // The root at 3 instead of 2: the chord slope 0.12 is a quarter of the true one (0.27) there,
+  // so chord steps overshoot and do not halve |G|; Newton-Krylov takes over.
+  const ShootingResult r =
+      find_periodic_state(Eigen::Vector2d(1.0, 5.0), cubic_map(27.0), o, &*far.warm);
+  ASSERT_TRUE(r.status.ok()) << r.status.message;
+  EXPECT_NEAR(r.start(0), 3.0, 1e-6 * 3.0);
+  EXPECT_NEAR(r.start(1), -1.0, 1e-6);
+  EXPECT_GE(r.newton_steps, 1);
 }
 
 }  // namespace
