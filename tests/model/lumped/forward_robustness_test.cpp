@@ -32,5 +32,18 @@ TEST(SIGMAHEART_CENSUS_SUITE, PointsThatStalledAtAValveKinkArePeriodic) {
   expect_no_failure(r, "regional, census points 401 889 2256");
 }
 
+// Regional census points 2491 and 2958 (docs/models.md s.2.1): a regular fixed point on the
+// ejection side of a kink where the aortic valve starts to open, and a nearly neutral arterial mode
+// (I - dF/dx has a singular value of 5e-4 and 8e-5). The watchdog judged its window by |G| alone
+// and went back to a state kPa away on the branch without ejection, whose |G| was smaller, until
+// the 400 beats ran out; it now also accepts a window whose Newton correction fell (Deuflhard's
+// natural monotonicity test).
+TEST(SIGMAHEART_CENSUS_SUITE, PointsWhereTheWatchdogReturnedToAFarStateArePeriodic) {
+  RegionalVentricle regional(five_patches());
+  const Census r = census(regional, 4096, {2491, 2958});
+  EXPECT_EQ(r.points, 2);
+  expect_no_failure(r, "regional, census points 2491 2958");
+}
+
 }  // namespace
 }  // namespace sigmaheart::model::lumped
