@@ -90,6 +90,56 @@ TEST(Ensemble, OneAndTwoThreadsGiveBitwiseIdenticalResultsIncludingFailures) {
   EXPECT_NEAR(r2.Z(5, 1), z(1), 0.0);
 }
 
+// A model with warm starts (docs/estimation.md s.3.8): z0 = a + the sum of the warm start it
+// started from (what a solve from a different start would move), its own warm start (a, b).
+class WarmModel final : public ForwardModel {
+ public:
+  int input_size() const override { return 2; }
+  std::vector<std::string> input_names() const override { return {"a", "b"}; }
+  std::vector<model::Channel> outputs() const override { return {{"z0", "1", ""}}; }
+  model::Status evaluate(const Eigen::Ref<const Eigen::VectorXd>& theta,
+                         Eigen::Ref<Eigen::VectorXd> z) override {
+    return evaluate_warm(theta, z, Eigen::VectorXd(), nullptr);
+  }
+  int warm_start_size() const override { return 2; }
+  model::Status evaluate_warm(const Eigen::Ref<const Eigen::VectorXd>& theta,
+                              Eigen::Ref<Eigen::VectorXd> z, const Eigen::VectorXd& from,
+                              Eigen::VectorXd* produce) override {
+    if (produce) *produce = Eigen::VectorXd::Zero(2);
+    if (theta(0) < 0) return model::Status::Error(model::StatusCode::kDiverged, "negative a");
+    z(0) = theta(0) + from.sum();
+    if (produce) *produce = theta;
+    return model::Status::Ok();
+  }
+  std::unique_ptr<ForwardModel> clone() const override { return std::make_unique<WarmModel>(); }
+};
+
+TEST(Ensemble, EveryMemberStartsFromTheGivenWarmStartAndHandsOnItsOwn) {
+  const WarmModel proto;
+  Eigen::MatrixXd thetas(5, 2);
+  thetas << 1, 2, 3, 4, -1, 0, 5, 6, 7, 8;
+  const Eigen::VectorXd from = Eigen::Vector2d(0.25, 0.5);
+  Ensemble one(proto, options(Backend::kThreads, 1));
+  Ensemble two(proto, options(Backend::kThreads, 2));
+  const EnsembleResult r1 = one.evaluate(thetas, from, true);
+  const EnsembleResult r2 = two.evaluate(thetas, from, true);
+  ASSERT_EQ(r2.Z.cols(), 1);
+  ASSERT_EQ(r2.warm.rows(), 5);
+  ASSERT_EQ(r2.warm.cols(), 2);
+  EXPECT_TRUE(bitwise_equal(r1.Z, r2.Z));
+  EXPECT_TRUE(bitwise_equal(r1.warm, r2.warm));
+  for (int i : {0, 1, 3, 4}) {
+    EXPECT_EQ(r2.Z(i, 0), thetas(i, 0) + 0.75) << i;
+    EXPECT_EQ(Eigen::VectorXd(r2.warm.row(i).transpose()), Eigen::VectorXd(thetas.row(i).transpose())) << i;
+  }
+  EXPECT_EQ(r2.failed_members(), (std::vector<int>{2}));
+  EXPECT_TRUE(r2.warm.row(2).array().isNaN().all());  // a failed member's row, warm part too
+  // Without a warm start nothing is added: the plain evaluate() is a cold start.
+  const EnsembleResult cold = two.evaluate(thetas);
+  EXPECT_EQ(cold.warm.size(), 0);
+  EXPECT_EQ(cold.Z(0, 0), 1.0);
+}
+
 TEST(Ensemble, ProgressCountsEveryMemberOnce) {
   const FunctionModel proto = toy_model();
   int calls = 0;

@@ -162,16 +162,21 @@ TEST(PeriodicShooting, TheWarmStartCarriesTheFixedPointAndTheJacobianOfTheBeatMa
   EXPECT_FALSE(ShootingWarmStart::unpack(Eigen::VectorXd::Zero(flat.size()), 2).has_value());
 }
 
-TEST(PeriodicShooting, AWarmStartFromANearbyMapReachesTheSameFixedPointInFewerBeats) {
+// The warm start of the cubic map with its root at 2.
+ShootingWarmStart warm_start_at_root_two() {
   ShootingOptions o;
   o.jacobian = true;
-  const ShootingResult near = find_periodic_state(Eigen::Vector2d(1.0, 5.0), cubic_map(8.0), o);
-  ASSERT_TRUE(near.warm.has_value());
-  o.jacobian = false;
+  const ShootingResult r = find_periodic_state(Eigen::Vector2d(1.0, 5.0), cubic_map(8.0), o);
+  EXPECT_TRUE(r.warm.has_value());
+  return r.warm.value_or(ShootingWarmStart{});
+}
+
+TEST(PeriodicShooting, AWarmStartFromANearbyMapReachesTheSameFixedPointInFewerBeats) {
+  const ShootingWarmStart near = warm_start_at_root_two();
+  const ShootingOptions o;
   const double c = 8.08;  // the root moves by 0.33 %
   const ShootingResult cold = find_periodic_state(Eigen::Vector2d(1.0, 5.0), cubic_map(c), o);
-  const ShootingResult warm =
-      find_periodic_state(Eigen::Vector2d(1.0, 5.0), cubic_map(c), o, &*near.warm);
+  const ShootingResult warm = find_periodic_state(Eigen::Vector2d(1.0, 5.0), cubic_map(c), o, &near);
   ASSERT_TRUE(cold.status.ok()) << cold.status.message;
   ASSERT_TRUE(warm.status.ok()) << warm.status.message;
   EXPECT_NEAR(warm.start(0), std::cbrt(c), 1e-6 * std::cbrt(c));
@@ -186,15 +191,11 @@ TEST(PeriodicShooting, AWarmStartFromANearbyMapReachesTheSameFixedPointInFewerBe
 }
 
 TEST(PeriodicShooting, AWarmStartFromAFarMapHandsOverToNewtonAndStillConverges) {
-  ShootingOptions o;
-  o.jacobian = true;
-  const ShootingResult far = find_periodic_state(Eigen::Vector2d(1.0, 5.0), cubic_map(8.0), o);
-  ASSERT_TRUE(far.warm.has_value());
-  o.jacobian = false;
+  const ShootingWarmStart far = warm_start_at_root_two();
   // The root at 3 instead of 2: the chord slope 0.12 is a quarter of the true one (0.27) there,
   // so chord steps overshoot and do not halve |G|; Newton-Krylov takes over.
   const ShootingResult r =
-      find_periodic_state(Eigen::Vector2d(1.0, 5.0), cubic_map(27.0), o, &*far.warm);
+      find_periodic_state(Eigen::Vector2d(1.0, 5.0), cubic_map(27.0), ShootingOptions{}, &far);
   ASSERT_TRUE(r.status.ok()) << r.status.message;
   EXPECT_NEAR(r.start(0), 3.0, 1e-6 * 3.0);
   EXPECT_NEAR(r.start(1), -1.0, 1e-6);
