@@ -1,6 +1,6 @@
 // Contract tests written once and run on every simulator (STYLE.md practice 7):
-// determinism, clone independence, dimensions, failure as a Status, and for steppable simulators
-// replay from a saved state. Every model of a registry runs them with its default numerics:
+// determinism, clone independence, dimensions, failure as a Status, warm starts, and for steppable
+// simulators replay from a saved state. Every model of a registry runs them with its default numerics:
 //   INSTANTIATE_TEST_SUITE_P(Builtin, SimulatorContract,
 //                            ::testing::ValuesIn(contract_cases(model::builtin_models())),
 //                            contract_case_name);
@@ -120,6 +120,27 @@ TEST_P(SimulatorContract, ClonesAreIndependent) {
   const auto again = sim->run(nominal);
   EXPECT_EQ((again.trajectory.values - reference.trajectory.values).cwiseAbs().maxCoeff(), 0.0);
   EXPECT_EQ(c1->parameters().names(), sim->parameters().names());
+}
+
+// Warm starts (model/simulator.h): without one, run_warm() is run() bit for bit and hands on
+// warm_start_size() entries; a run from that warm start at another theta is deterministic.
+TEST_P(SimulatorContract, RunWarmWithoutAWarmStartIsRunAndFromOneIsDeterministic) {
+  auto sim = GetParam().make();
+  const Eigen::VectorXd theta = sim->parameters().nominal();
+  const auto cold = sim->run(theta);
+  Eigen::VectorXd warm;
+  const auto a = sim->run_warm(theta, Eigen::VectorXd(), &warm);
+  ASSERT_TRUE(a.status.ok()) << a.status.message;
+  ASSERT_EQ(a.trajectory.values.rows(), cold.trajectory.values.rows());
+  EXPECT_EQ((a.trajectory.values - cold.trajectory.values).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_EQ(warm.size(), sim->warm_start_size());
+  const Eigen::VectorXd other = perturbed(sim->parameters(), GetParam().perturbation);
+  const auto b1 = sim->run_warm(other, warm, nullptr);
+  const auto b2 = sim->clone()->run_warm(other, warm, nullptr);
+  ASSERT_TRUE(b1.status.ok()) << b1.status.message;
+  ASSERT_TRUE(b2.status.ok()) << b2.status.message;
+  ASSERT_EQ(b1.trajectory.values.rows(), b2.trajectory.values.rows());
+  EXPECT_EQ((b1.trajectory.values - b2.trajectory.values).cwiseAbs().maxCoeff(), 0.0);
 }
 
 TEST_P(SimulatorContract, FailureIsReportedAsStatus) {
