@@ -185,7 +185,8 @@ EnsembleResult Ensemble::evaluate(const Eigen::MatrixXd& thetas, const Eigen::Ve
         Eigen::VectorXd own;
         const model::Status st = pool_->model(w).evaluate_warm(theta, row.head(outputs), from,
                                                                produce ? &own : nullptr);
-        if (produce && own.size() == extra) row.tail(extra) = own;
+        // A warm start of the wrong size is none (zeros), never a NaN that fails the member.
+        if (produce) row.tail(extra) = own.size() == extra ? own : Eigen::VectorXd::Zero(extra);
         return st;
       });
   if (extra > 0) {

@@ -87,8 +87,8 @@ model::Status SimulatorForwardModel::evaluate_warm(const Eigen::Ref<const Eigen:
                                                    const Eigen::VectorXd& from,
                                                    Eigen::VectorXd* produce) {
   using model::Status;
-  if (produce) *produce = Eigen::VectorXd::Zero(warm_start_size());
   using model::StatusCode;
+  if (produce) *produce = Eigen::VectorXd::Zero(warm_start_size());
   if (theta.size() != input_size() || z.size() != observer_->size()) {
     std::ostringstream s;
     s << "forward model: theta has " << theta.size() << " entries (expected " << input_size()

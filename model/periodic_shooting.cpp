@@ -65,14 +65,12 @@ VectorXd entry_scales(const BeatOutcome& b, Eigen::Index n) {
   return s;
 }
 
-// J = I - dF/dx at x in the scales of the beat from x, by forward differences of fd_step scaled
-// units (n beats, not recorded, plus the beat from x). nullopt when a beat failed.
-std::optional<ShootingWarmStart> measure_warm_start(const VectorXd& x,
+// J = I - dF/dx at x in the scales of b0, the beat from x that the solve ended with, by forward
+// differences of fd_step scaled units (n beats, not recorded). nullopt when a beat failed.
+std::optional<ShootingWarmStart> measure_warm_start(const VectorXd& x, const BeatOutcome& b0,
                                                     const std::function<BeatOutcome(const VectorXd&)>& run,
                                                     double fd_step) {
   const Eigen::Index n = x.size();
-  const BeatOutcome b0 = run(x);
-  if (!b0.status.ok()) return std::nullopt;
   ShootingWarmStart w;
   w.start = x;
   w.scale = entry_scales(b0, n);
@@ -108,16 +106,19 @@ std::optional<ShootingWarmStart> ShootingWarmStart::unpack(const Eigen::VectorXd
 }
 
 namespace {
+// `last` receives the beat from the returned start when the solve converged.
 ShootingResult solve_periodic_state(const VectorXd& x0, const BeatMap& beat,
-                                    const ShootingOptions& o, const ShootingWarmStart* warm);
+                                    const ShootingOptions& o, const ShootingWarmStart* warm,
+                                    BeatOutcome& last);
 }  // namespace
 
 ShootingResult find_periodic_state(const VectorXd& x0, const BeatMap& beat,
                                    const ShootingOptions& o, const ShootingWarmStart* warm) {
-  ShootingResult res = solve_periodic_state(x0, beat, o, warm);
+  BeatOutcome last;
+  ShootingResult res = solve_periodic_state(x0, beat, o, warm, last);
   if (o.jacobian && res.status.ok()) {
     res.warm = measure_warm_start(
-        res.start, [&](const VectorXd& x) {
+        res.start, last, [&](const VectorXd& x) {
           ++res.beats;
           return beat(x, false);
         },
@@ -128,7 +129,8 @@ ShootingResult find_periodic_state(const VectorXd& x0, const BeatMap& beat,
 
 namespace {
 ShootingResult solve_periodic_state(const VectorXd& x0, const BeatMap& beat,
-                                    const ShootingOptions& o, const ShootingWarmStart* warm) {
+                                    const ShootingOptions& o, const ShootingWarmStart* warm,
+                                    BeatOutcome& last) {
   ShootingResult res;
   const Eigen::Index n = x0.size();
   auto run = [&](const VectorXd& start, bool record) {
@@ -139,6 +141,14 @@ ShootingResult solve_periodic_state(const VectorXd& x0, const BeatMap& beat,
   auto fail = [&](Status st, const VectorXd& x) {
     res.status = std::move(st);
     res.start = x;
+    return res;
+  };
+  // Periodic: `start` with its last correction, `from_start` the (recorded) beat from it.
+  auto succeed = [&](const VectorXd& start, double correction, BeatOutcome from_start) {
+    res.correction = correction;
+    res.start = start;
+    res.status = Status::Ok();
+    last = std::move(from_start);
     return res;
   };
 
@@ -160,12 +170,7 @@ ShootingResult solve_periodic_state(const VectorXd& x0, const BeatMap& beat,
       const VectorXd g = base.end - x;
       const VectorXd r = g.cwiseQuotient(s);
       if (!r.allFinite()) break;
-      if (max_abs(r) == 0.0) {
-        res.correction = 0.0;
-        res.start = x;
-        res.status = Status::Ok();
-        return res;
-      }
+      if (max_abs(r) == 0.0) return succeed(x, 0.0, std::move(base));
       const VectorXd dx = warm->scale.cwiseProduct(lu.solve(g.cwiseQuotient(warm->scale)));
       if (!dx.allFinite()) break;
       const double step = max_abs(dx.cwiseQuotient(s));
@@ -177,12 +182,7 @@ ShootingResult solve_periodic_state(const VectorXd& x0, const BeatMap& beat,
         break;
       }
       ++res.chord_steps;
-      if (step <= o.tolerance) {
-        res.correction = step;
-        res.start = xt;
-        res.status = Status::Ok();
-        return res;
-      }
+      if (step <= o.tolerance) return succeed(xt, step, std::move(t));
       const double rt = (t.end - xt).cwiseQuotient(s).norm();
       if (!(rt <= 0.5 * r.norm())) {  // not contracting: Newton-Krylov from the better point
         if (rt < r.norm()) {
@@ -434,12 +434,7 @@ ShootingResult solve_periodic_state(const VectorXd& x0, const BeatMap& beat,
           break;
         }
       }
-      if (moved && step <= o.tolerance) {
-        res.correction = step;
-        res.start = x;
-        res.status = Status::Ok();
-        return res;
-      }
+      if (moved && step <= o.tolerance) return succeed(x, step, std::move(base));
     }
     if (!moved) {  // no usable Newton step: one plain beat, which never makes things worse
       if (res.beats >= o.max_beats) break;
@@ -448,11 +443,7 @@ ShootingResult solve_periodic_state(const VectorXd& x0, const BeatMap& beat,
       if (!base.status.ok()) return fail(base.status, x);
     }
   }
-  if (res.correction == 0.0) {
-    res.start = x;
-    res.status = Status::Ok();
-    return res;
-  }
+  if (res.correction == 0.0) return succeed(x, 0.0, std::move(base));
   std::ostringstream m;
   m << "not periodic after " << res.beats << " beats (max_beats " << o.max_beats << ", "
     << res.newton_steps << " Newton steps): the start state still changes by "
