@@ -25,13 +25,16 @@ using namespace sigmaheart;
 constexpr int kThreads = 2;
 constexpr const char* kCase = "one-fibre-healthy";  // 72 bpm, 30 frames of V_lv and P_lv
 
-// The shipped config (12 parameters) or the 5-parameter one on kCase with its period, parsed as
-// `sigmaheart calibrate` parses it, and the forward model of its estimated parameters.
+// The shipped config (14 parameters, sphere with an atrial chamber), the prescribed-atrium one
+// (12) or the 5-parameter one on kCase with its period, parsed as `sigmaheart calibrate` parses
+// it, and the forward model of its estimated parameters.
 struct ForeignProblem {
   explicit ForeignProblem(int parameters)
       : config(app::load_config(
             std::string(SIGMAHEART_SOURCE_DIR) + "/experiments/foreign-data/" +
-                (parameters == 5 ? "calibrate-foreign-5.yaml" : "calibrate-foreign.yaml"),
+                (parameters == 5    ? "calibrate-foreign-5.yaml"
+                 : parameters == 12 ? "calibrate-foreign-12.yaml"
+                                    : "calibrate-foreign.yaml"),
             {std::string("observations.file=../../configs/data/foreign/") + kCase + ".csv",
              "period=0.833333"})),
         problem(app::parse_calibration_problem(config)),
@@ -47,10 +50,10 @@ struct ForeignProblem {
   estimation::EnsembleOptions ensemble;
 };
 
-// Args: number of estimated parameters (5 or 12); estimator (0: the UT as the config sets it,
-// 1: the Ceres reference as the config sets it); start (0: as the config sets it, i.e. the
-// 12-parameter config's global start of 32 screened points and 4 local runs; 1: one local run
-// from the prior mean).
+// Args: number of estimated parameters (5, 12 or 14, picking the config); estimator (0: the UT as
+// the config sets it, 1: the Ceres reference as the config sets it); start (0: as the config sets
+// it, i.e. the 12- and 14-parameter configs' global start of 32 screened points and 4 local runs;
+// 1: one local run from the prior mean).
 void BM_CalibrateForeign(benchmark::State& state) {
   ForeignProblem f(static_cast<int>(state.range(0)));
   const bool ceres = state.range(1) == 1;
@@ -89,6 +92,7 @@ BENCHMARK(BM_CalibrateForeign)
     ->ArgNames({"params", "ceres", "single"})
     ->Args({5, 0, 0})->Args({5, 1, 0})
     ->Args({12, 0, 0})->Args({12, 1, 0})->Args({12, 0, 1})->Args({12, 1, 1})
+    ->Args({14, 0, 0})->Args({14, 1, 0})->Args({14, 0, 1})->Args({14, 1, 1})
     ->Iterations(1)->UseRealTime()->Unit(benchmark::kSecond);
 
 }  // namespace

@@ -30,10 +30,12 @@
 //   afterload_resistance   Pa s/m^3    arterial resistances (R_p, R_d)
 //   afterload_compliance   m^3/Pa      arterial compliances (C_p, C_d)
 //   venous_pressure        Pa          pressure downstream of the periphery (P_sv)
-//   preload_pressure       Pa          atrial pressure baseline and kick (P_at0, P_at_kick)
+//   preload_pressure       Pa          atrial pressure baseline and kick (P_at0, P_at_kick), or
+//                                      the pulmonary-venous pressure of an atrial chamber (P_pv)
+//   preload_resistance     Pa s/m^3    pulmonary-venous resistance of an atrial chamber (R_pv)
 //   cavity_compliance      m^3/Pa      cavity compliance (C_cav)
-//   elastance              Pa/m^3      time-varying elastance models (E_max, E_min)
-//   unloaded_volume        m^3         volume at zero pressure (V0)
+//   elastance              Pa/m^3      time-varying elastance models (E_max, E_min, E_at_min, E_at_max)
+//   unloaded_volume        m^3         volume at zero pressure (V0, V_at0)
 // and for channels: regional_volume (V_segXX, m^3). A regional parameter or channel has segment
 // 1..N (AHA segment or patch), a global one segment 0.
 #pragma once

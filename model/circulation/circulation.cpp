@@ -25,12 +25,71 @@ std::string CirculationParameters::validate() const {
   return {};
 }
 
+double atrial_activation(double t, double period, double kick_duration) {
+  const double local = t - std::floor(t / period) * period;  // [0, period)
+  const double start = period - kick_duration;
+  if (kick_duration <= 0.0 || local < start) return 0.0;
+  const double s = std::sin(std::numbers::pi * (local - start) / kick_duration);
+  return s * s;
+}
+
 double AtrialPressure::operator()(double t) const {
   const double local = t - std::floor(t / period) * period;  // [0, period)
   const double start = period - kick_duration;
   if (kick_duration <= 0.0 || local < start) return P_at0;
   const double s = std::sin(std::numbers::pi * (local - start) / kick_duration);
   return P_at0 + P_at_kick * s * s;
+}
+
+double AtrialChamber::elastance(double t) const {
+  return E_min + (E_max - E_min) * atrial_activation(t, period, kick_duration);
+}
+
+std::string AtrialChamber::validate() const {
+  std::ostringstream s;
+  if (!(std::isfinite(E_min) && E_min > 0.0)) s << "E_at_min = " << E_min << " must be > 0";
+  else if (!(std::isfinite(E_max) && E_max >= E_min))
+    s << "E_at_max = " << E_max << " must be >= E_at_min = " << E_min;
+  else if (!std::isfinite(V0)) s << "V_at0 must be finite";
+  else if (!std::isfinite(P_pv)) s << "P_pv must be finite";
+  else if (!(std::isfinite(R_pv) && R_pv > 0.0)) s << "R_pv = " << R_pv << " must be > 0";
+  return s.str();
+}
+
+AtrialStep atrial_step(const AtrialChamber& a, double P_v, double P_ar, double V_old, double h,
+                       double t1, const CirculationParameters& c) {
+  // r(P) = (V0 + P/E - V_old)/h - (P_pv - P)/R_pv + q_at(P_v, P_ar, P), q_at = -(mitral term of
+  // valve_flow): K_at (P - P_v) for P >= P_v; for P < P_v: K_p (P - P_v) if P_v <= P_ar,
+  // K_p (P - P_ar) if P < P_ar < P_v, 0 if P_ar <= P < P_v. Each piece is linear in P with slope
+  // 1/(E h) + 1/R_pv + (K_at, K_p or 0) > 0, so exactly one piece holds the root.
+  const double E = a.elastance(t1);
+  const double base = 1.0 / (E * h) + 1.0 / a.R_pv;
+  const double r0 = (a.V0 - V_old) / h - a.P_pv / a.R_pv;  // r(P) = r0 + base P + q_at(P)
+  struct Piece { double kP, kPv, kPar; };                   // q_at = kP P + kPv P_v + kPar P_ar
+  auto piece_at = [&](double P) -> Piece {
+    if (P >= P_v) return {c.K_at, -c.K_at, 0.0};
+    if (P_v <= P_ar) return {c.K_p, -c.K_p, 0.0};
+    if (P < P_ar) return {c.K_p, 0.0, -c.K_p};
+    return {0.0, 0.0, 0.0};
+  };
+  auto r_at = [&](double P) {
+    const Piece q = piece_at(P);
+    return r0 + base * P + q.kP * P + q.kPv * P_v + q.kPar * P_ar;
+  };
+  // The pieces are bounded by the kinks lo <= hi; pick the one where r changes sign.
+  const double lo = std::min(P_v, P_ar), hi = std::max(P_v, P_ar);
+  double probe;  // a point inside the root's piece
+  if (r_at(lo) >= 0.0) probe = lo - 1.0;
+  else if (r_at(hi) >= 0.0) probe = hi > lo ? 0.5 * (lo + hi) : hi + 1.0;
+  else probe = hi + 1.0;
+  const Piece q = piece_at(probe);
+  const double slope = base + q.kP;
+  AtrialStep out;
+  out.P_at = -(r0 + q.kPv * P_v + q.kPar * P_ar) / slope;
+  out.V_at = a.V0 + out.P_at / E;
+  out.dPat_dPv = -q.kPv / slope;
+  out.dPat_dPar = -q.kPar / slope;
+  return out;
 }
 
 Phase phase(ValveRegime now, ValveRegime last_open) {
@@ -65,21 +124,25 @@ ValveFlow valve_flow(double P_v, double P_ar, double P_at, const CirculationPara
     f.dqar_dPv = c.K_ar;
     f.dqar_dPar = -c.K_ar;
   }
-  double mitral = 0.0, dm_dPv = 0.0, dm_dPar = 0.0;  // the second term of q
+  double mitral = 0.0, dm_dPv = 0.0, dm_dPar = 0.0, dm_dPat = 0.0;  // the second term of q
   if (P_v <= P_at) {
     mitral = c.K_at * (P_v - P_at);
     dm_dPv = c.K_at;
+    dm_dPat = -c.K_at;
   } else if (P_v <= std::max(P_ar, P_at)) {
     mitral = c.K_p * (P_v - P_at);
     dm_dPv = c.K_p;
+    dm_dPat = -c.K_p;
   } else if (P_ar > P_at) {
     mitral = c.K_p * (P_ar - P_at);
     dm_dPar = c.K_p;
+    dm_dPat = -c.K_p;
   }
   f.q = f.q_ar + mitral;
   f.q_at = -mitral;
   f.dq_dPv = f.dqar_dPv + dm_dPv;
   f.dq_dPar = f.dqar_dPar + dm_dPar;
+  f.dq_dPat = dm_dPat;
   f.regime = aortic_open ? ValveRegime::kEjection
                          : (P_v <= P_at ? ValveRegime::kFilling : ValveRegime::kClosed);
   return f;

@@ -1,4 +1,4 @@
-// Valves, two-stage Windkessel and prescribed atrial pressure (docs/models.md section 2), shared by the
+// Valves, two-stage Windkessel and the atrium, prescribed or a chamber (docs/models.md section 2), shared by the
 // lumped sphere, the regional lumped ventricle and the 3D model. After Caruel et al. 2014
 // (Biomech Model Mechanobiol 13:897, section 2.3) and Sainte-Marie et al. 2006.
 //
@@ -44,6 +44,32 @@ struct AtrialPressure {
   double operator()(double t) const;
 };
 
+// The atrial activation of both atrium forms: sin^2(pi s / kick_duration) over the kick_duration
+// that ends at each beat start (s the time since the kick began), 0 elsewhere; in [0, 1].
+double atrial_activation(double t, double period, double kick_duration);
+
+// The left atrium as a chamber (docs/models.md s.2.3): a time-varying elastance filled from the
+// pulmonary veins through a resistance, emptied through the mitral valve,
+//   P_at = E_at(t) (V_at - V_at0),  E_at(t) = E_at_min + (E_at_max - E_at_min) a(t),
+//   dV_at/dt = (P_pv - P_at) / R_pv - q_at,
+// a(t) = atrial_activation(t) (the kick of AtrialPressure). Unlike a prescribed pressure it stores
+// the pulmonary-venous inflow of systole and gives it back when the mitral valve opens: the rapid
+// early filling (E wave) followed by slow conduit filling (diastasis). The time-varying elastance
+// atrium of Korakianitis & Shi 2006 (Med Eng Phys 28:613, Table 1: E_pas 0.15, E_act 0.25
+// mmHg/mL, V_ref 4 mL; pulmonary-vein resistance 0.006 mmHg s/mL) with the kick's timing.
+struct AtrialChamber {
+  double E_min = 2.0e7;        // passive elastance [Pa/m^3] (0.15 mmHg/mL)
+  double E_max = 5.33e7;       // elastance at the peak of the kick [Pa/m^3] (0.40 mmHg/mL)
+  double V0 = 4e-6;            // unstressed volume [m^3]
+  double P_pv = 1050.0;        // pulmonary-venous pressure [Pa]
+  double R_pv = 8.0e5;         // pulmonary-venous resistance [Pa s/m^3] (0.006 mmHg s/mL)
+  double kick_duration = 0.12; // [s]
+  double period = 0.85;        // heart period [s]
+  double elastance(double t) const;
+  double pressure(double t, double V_at) const { return elastance(t) * (V_at - V0); }
+  std::string validate() const;  // empty when valid
+};
+
 // Which valve is open, from the valve law.
 enum class ValveRegime { kFilling = 0, kClosed = 1, kEjection = 2 };
 
@@ -66,10 +92,22 @@ struct ValveFlow {
   double q = 0.0;       // ventricular outflow q_ar - q_at [m^3/s]
   double q_ar = 0.0;    // aortic flow [m^3/s]
   double q_at = 0.0;    // mitral inflow [m^3/s]
-  double dq_dPv = 0.0, dq_dPar = 0.0;
+  double dq_dPv = 0.0, dq_dPar = 0.0, dq_dPat = 0.0;
   double dqar_dPv = 0.0, dqar_dPar = 0.0;
 };
 ValveFlow valve_flow(double P_v, double P_ar, double P_at, const CirculationParameters& c);
+
+// One backward-Euler step of the atrial chamber over [t1 - h, t1], with the mitral flow of
+// valve_flow() at the new (P_v, P_ar): the atrial pressure P_at at t1 that solves
+//   (V0 + P_at / E_at(t1) - V_old) / h = (P_pv - P_at) / R_pv - q_at(P_v, P_ar, P_at),
+// exactly (the residual is continuous, piecewise linear and strictly increasing in P_at, with
+// kinks at P_v and P_ar only), the atrial volume and the derivatives of P_at in (P_v, P_ar).
+struct AtrialStep {
+  double P_at = 0.0, V_at = 0.0;
+  double dPat_dPv = 0.0, dPat_dPar = 0.0;
+};
+AtrialStep atrial_step(const AtrialChamber& a, double P_v, double P_ar, double V_old, double h,
+                       double t1, const CirculationParameters& c);
 
 // Backward-Euler residuals of the Windkessel (units m^3/s) and their derivatives with respect to
 // (P_ar, P_d) at t^{n+1}; q_ar enters with its own derivative through valve_flow().

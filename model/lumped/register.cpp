@@ -112,6 +112,19 @@ void register_lumped_models(ModelRegistry& registry) {
       },
       sphere_presets()});
   registry.add(ModelSetup{
+      "lumped-sphere-atrium",
+      "the lumped sphere with a left-atrial chamber (time-varying elastance fed from the pulmonary "
+      "veins, Korakianitis & Shi 2006) instead of a prescribed atrial pressure",
+      [](const OptionReader& numerics) {
+        const SphereOptions options = read_sphere_options(numerics);
+        using A = LumpedSphere::Atrium;
+        return ModelBuild(LumpedSphere::default_parameters(A::kChamber),
+                          [options](const ParameterSpace& p) -> std::unique_ptr<Simulator> {
+                            return std::make_unique<LumpedSphere>(options, p, A::kChamber);
+                          });
+      },
+      {}});
+  registry.add(ModelSetup{
       "lumped-regional",
       "17 AHA wall patches on the BCS sphere (MultiPatch, Walmsley 2015); regional volumes V_segXX",
       [](const OptionReader& numerics) {

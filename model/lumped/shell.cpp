@@ -15,15 +15,33 @@ const std::vector<std::string>& global_names() {
   return names;
 }
 
-std::vector<int> global_indices(const ParameterSpace& space) {
+std::vector<int> global_indices(const ParameterSpace& space, bool atrial_chamber) {
   std::vector<int> idx;
   idx.reserve(global_names().size());
-  for (const auto& n : global_names()) idx.push_back(space.index_or_throw(n));
+  for (const auto& n : global_names()) {
+    const bool prescribed_atrium = n == "P_at0" || n == "P_at_kick";
+    idx.push_back(atrial_chamber && prescribed_atrium ? -1 : space.index_or_throw(n));
+  }
   return idx;
 }
 
-Shell unpack(const Eigen::Ref<const Eigen::VectorXd>& theta, const std::vector<int>& global) {
-  auto at = [&](int k) { return theta(global[static_cast<size_t>(k)]); };
+const std::vector<std::string>& atrium_names() {
+  static const std::vector<std::string> names = {"E_at_min", "E_at_max", "V_at0", "P_pv", "R_pv"};
+  return names;
+}
+
+std::vector<int> atrium_indices(const ParameterSpace& space) {
+  std::vector<int> idx;
+  for (const auto& n : atrium_names()) idx.push_back(space.index_or_throw(n));
+  return idx;
+}
+
+Shell unpack(const Eigen::Ref<const Eigen::VectorXd>& theta, const std::vector<int>& global,
+             const std::vector<int>* atrium, int atrium_entry) {
+  auto at = [&](int k) {
+    const int i = global[static_cast<size_t>(k)];
+    return i < 0 ? 0.0 : theta(i);  // -1: P_at0, P_at_kick beside an atrial chamber (unused)
+  };
   Shell m;
   m.rho = at(kRho);
   m.R0 = at(kR0);
@@ -56,6 +74,18 @@ Shell unpack(const Eigen::Ref<const Eigen::VectorXd>& theta, const std::vector<i
   m.atrial.P_at0 = at(kPat0);
   m.atrial.P_at_kick = at(kPatKick);
   m.atrial.period = m.period;
+  if (atrium != nullptr) {
+    auto a = [&](int k) { return theta((*atrium)[static_cast<size_t>(k)]); };
+    m.chamber = true;
+    m.atrium_entry = atrium_entry;
+    m.atrium.E_min = a(0);
+    m.atrium.E_max = a(1);
+    m.atrium.V0 = a(2);
+    m.atrium.P_pv = a(3);
+    m.atrium.R_pv = a(4);
+    m.atrium.kick_duration = m.atrial.kick_duration;
+    m.atrium.period = m.period;
+  }
   return m;
 }
 
@@ -126,7 +156,7 @@ std::vector<Channel> circulation_channels() {
       {"V_lv", "m^3", "left-ventricular cavity volume 4/3 pi R^3"},
       {"P_lv", "Pa", "left-ventricular pressure P_v"},
       {"P_ar", "Pa", "proximal arterial (aortic) pressure"},
-      {"P_at", "Pa", "prescribed atrial pressure"},
+      {"P_at", "Pa", "atrial pressure (prescribed, or the atrial chamber's)"},
       {"q_ar", "m^3/s", "aortic-valve flow, > 0 into the artery"},
       {"q_at", "m^3/s", "mitral-valve flow, > 0 into the ventricle"},
       {"phase", "1", "0 filling, 1 isovolumic contraction, 2 ejection, 3 isovolumic relaxation"},
@@ -136,7 +166,7 @@ std::vector<Channel> circulation_channels() {
 
 Eigen::Matrix<double, 8, 1> circulation_sample(const Shell& m, const State& state) {
   const auto& x = state.x;
-  const double P_at = m.atrial(state.time);
+  const double P_at = atrial_pressure(m, x, state.time);
   const auto q = circulation::valve_flow(x(kPv), x(kPar), P_at, m.circ);
   const auto last = x(x.size() - 1) > 1.0 ? circulation::ValveRegime::kEjection
                                           : circulation::ValveRegime::kFilling;
@@ -154,7 +184,8 @@ RunResult failed_run(std::vector<Channel> channels, Status status) {
 }
 
 double fill_relaxed_state(const Shell& m, Eigen::Ref<Eigen::VectorXd> x) {
-  const double P0 = m.atrial(0.0);
+  const double P0 = m.chamber ? m.atrium.P_pv : m.atrial(0.0);
+  if (m.chamber) x(m.atrium_entry) = m.atrium.V0 + P0 / m.atrium.elastance(0.0);
   const double y = static_radius_offset(m, P0);
   const double s1 = 1.0 + y / m.R0;
   x(kY) = y;

@@ -41,16 +41,34 @@ enum Global : int {
 };
 const std::vector<std::string>& global_names();
 // Positions of global_names() in a parameter space (throws std::invalid_argument if one is missing).
-std::vector<int> global_indices(const ParameterSpace& space);
+// With an atrial chamber the prescribed atrium's P_at0 and P_at_kick are not parameters (-1).
+std::vector<int> global_indices(const ParameterSpace& space, bool atrial_chamber = false);
+
+// The atrial chamber's parameters (circulation::AtrialChamber), in this order.
+const std::vector<std::string>& atrium_names();
+std::vector<int> atrium_indices(const ParameterSpace& space);  // throws if one is missing
 
 // The shell's global parameters unpacked from theta. act.sigma0 is left at 0 (per model).
+// chamber: the atrium is circulation::AtrialChamber, its volume the state entry atrium_entry;
+// otherwise the prescribed pressure `atrial`.
 struct Shell {
   double rho, R0, d0, c1, c2, c_exp, b_exp, eta, period;
   bcs::ActiveParameters act;
   circulation::CirculationParameters circ;
   circulation::AtrialPressure atrial;
+  bool chamber = false;
+  circulation::AtrialChamber atrium;
+  int atrium_entry = -1;
 };
-Shell unpack(const Eigen::Ref<const Eigen::VectorXd>& theta, const std::vector<int>& global);
+// `atrium`: atrium_indices() for a chamber whose volume is state entry atrium_entry, else null.
+Shell unpack(const Eigen::Ref<const Eigen::VectorXd>& theta, const std::vector<int>& global,
+             const std::vector<int>* atrium = nullptr, int atrium_entry = -1);
+
+// The atrial pressure of state x at time t (prescribed, or the chamber's from its volume).
+template <class X>
+double atrial_pressure(const Shell& m, const X& x, double t) {
+  return m.chamber ? m.atrium.pressure(t, x(m.atrium_entry)) : m.atrial(t);
+}
 
 // Passive stress Sigma = 2 dW/dC and dSigma/dC (docs/models.md s.2): Mooney-Rivlin
 // W = c1 (J1 - 3) + c2 (J2 - 3) plus the exponential stiffening named as the alternative in
@@ -161,14 +179,30 @@ double next_time(double t, double t_end, double dt, double period);
 // their derivatives in u = (v, P_v, P_ar, ...) in columns 0..2 of J (dy/dv = h). `c` is the step
 // context: xo (the state at t^n), h, P_at, V_old, Pd_den = C_d/h + 1/R_p + 1/R_d and
 // Pd_rhs = C_d/h P_d^n + P_sv/R_d.
+// With an atrial chamber (m.chamber), `atrium` is given: its V_old and t1 in, and the atrial
+// step out (circulation::atrial_step, exact); P_at then depends on (P_v, P_ar), and so does the
+// mitral flow of the cavity row (chain rule). Without a chamber, P_at = c.P_at.
+struct AtriumRows {
+  double V_old = 0.0, t1 = 0.0;  // in
+  circulation::AtrialStep step;  // out
+};
 template <class Context, class Res, class Jac>
 double circulation_rows(const Shell& m, const Context& c, double y, double Pv, double Par, Res& r,
-                        Jac& J) {
+                        Jac& J, AtriumRows* atrium = nullptr) {
   namespace circ = circulation;
   const double h = c.h;
   const double Pd = (c.Pd_rhs + Par / m.circ.R_p) / c.Pd_den;
   const double dPd_dPar = 1.0 / (m.circ.R_p * c.Pd_den);
-  const circ::ValveFlow q = circ::valve_flow(Pv, Par, c.P_at, m.circ);
+  double P_at = c.P_at;
+  if (atrium != nullptr) {
+    atrium->step = circ::atrial_step(m.atrium, Pv, Par, atrium->V_old, h, atrium->t1, m.circ);
+    P_at = atrium->step.P_at;
+  }
+  circ::ValveFlow q = circ::valve_flow(Pv, Par, P_at, m.circ);
+  if (atrium != nullptr) {
+    q.dq_dPv += q.dq_dPat * atrium->step.dPat_dPv;
+    q.dq_dPar += q.dq_dPat * atrium->step.dPat_dPar;
+  }
   const circ::WindkesselResidual w =
       circ::windkessel_residual(Par, Pd, c.xo(kPar), c.xo(kPd), q.q_ar, h, m.circ);
   const double R = m.R0 + y;
@@ -204,6 +238,7 @@ RunResult failed_run(std::vector<Channel> channels, Status status);
 // Fills entries y, P_v, P_ar, P_d of a relaxed initial state (static passive equilibrium with the
 // atrial pressure at t = 0, arteries at a typical diastolic pressure; the periodic loop settles
 // within a few beats) and returns the fibre strain of that radius, for the contractile elements.
+// An atrial chamber starts at the pulmonary-venous pressure (no inflow).
 double fill_relaxed_state(const Shell& m, Eigen::Ref<Eigen::VectorXd> x);
 
 // Validity checks of theta shared by both models (size, bounds, APD < period, dt <= period).
@@ -266,7 +301,8 @@ Status step_with_cuts(State& state, const Shell& m, double dt, double t_end, Ste
       return Status::Error(xn.allFinite() ? StatusCode::kDiverged : StatusCode::kNonFinite,
                            s.str());
     }
-    const auto regime = circulation::valve_flow(xn(kPv), xn(kPar), m.atrial(t1), m.circ).regime;
+    const auto regime =
+        circulation::valve_flow(xn(kPv), xn(kPar), atrial_pressure(m, xn, t1), m.circ).regime;
     if (regime != circulation::ValveRegime::kClosed) last_open = static_cast<double>(regime);
     x = xn;
     t = t1;

@@ -48,16 +48,20 @@ enum P : int {
 // State layout (state_layout() documents it with units): the shell's five entries, then the
 // active state, then the diagnostic flag.
 using shell::kY, shell::kV, shell::kPv, shell::kPar, shell::kPd;
-enum X : int { kEc = 5, kKc, kTc, kLastOpen, kStateSize };
-constexpr int kUnknowns = 8;  // kY..kTc; kLastOpen is a diagnostic flag, not an unknown
-using Vec = Eigen::Matrix<double, kUnknowns, 1>;
+// With an atrial chamber (lumped-sphere-atrium) the atrial volume V_at follows as entry kVat;
+// last_open_valve, a diagnostic flag and not an unknown, always ends the state.
+enum X : int { kEc = 5, kKc, kTc, kVat };
+constexpr int kUnknowns = 8;  // kY..kTc, without an atrial chamber
+// The unknowns, 8 or 9 (on the stack either way).
+using Vec = Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, kUnknowns + 1, 1>;
 using shell::kPref, shell::kVref;
 using shell::cavity_volume, shell::passive_stress;
 
 // The shell with its one contractility; index = shell::global_indices() then sigma0.
 using Model = shell::Shell;
-Model unpack(const Eigen::Ref<const Eigen::VectorXd>& theta, const std::vector<int>& idx) {
-  Model m = shell::unpack(theta, idx);
+Model unpack(const Eigen::Ref<const Eigen::VectorXd>& theta, const std::vector<int>& idx,
+             const std::vector<int>& atrium) {
+  Model m = shell::unpack(theta, idx, atrium.empty() ? nullptr : &atrium, kVat);
   m.act.sigma0 = theta(idx.back());
   return m;
 }
@@ -107,6 +111,7 @@ struct StepContext {
   const Model& m;
   const Vec& xo;
   double h;
+  double t1;
   double P_at;
   bcs::StepActivation act;
   double V_old;
@@ -115,7 +120,8 @@ struct StepContext {
 };
 
 // Scaled residuals r = (balance [1/kPref], cavity, proximal Windkessel [h/kVref], R_e [1/kPref])
-// and their Jacobian in u. When `full` is given, it receives the complete 8-entry state.
+// and their Jacobian in u. When `full` is given, it receives the complete state (8 entries, 9
+// with the atrial chamber's volume, solved exactly with P_at by shell::circulation_rows).
 void reduced_residual(const StepContext& c, const Vec4& u, Vec4& r, Mat4& J, Vec* full) {
   const Model& m = c.m;
   const double h = c.h;
@@ -150,7 +156,8 @@ void reduced_residual(const StepContext& c, const Vec4& u, Vec4& r, Mat4& J, Vec
   J(0, 2) = 0.0;
   J(0, 3) = k1 * s * a.dstress_dec / kPref;
   // Cavity volume balance and proximal Windkessel.
-  const double Pd = shell::circulation_rows(m, c, y, Pv, Par, r, J);
+  shell::AtriumRows atrium{m.chamber ? c.xo(kVat) : 0.0, c.t1, {}};
+  const double Pd = shell::circulation_rows(m, c, y, Pv, Par, r, J, m.chamber ? &atrium : nullptr);
   J(1, 3) = 0.0;
   J(2, 3) = 0.0;
   // Contractile-element balance (k_c, tau_c already eliminated).
@@ -161,7 +168,8 @@ void reduced_residual(const StepContext& c, const Vec4& u, Vec4& r, Mat4& J, Vec
   J(3, 3) = a.dres_dec / kPref;
 
   if (full != nullptr) {
-    (*full) << y, v, Pv, Par, Pd, ec, a.state.k_c, a.state.tau_c;
+    full->template head<kUnknowns>() << y, v, Pv, Par, Pd, ec, a.state.k_c, a.state.tau_c;
+    if (m.chamber) (*full)(kVat) = atrium.step.V_at;
   }
 }
 
@@ -172,7 +180,8 @@ int newton_step(const Model& m, const Vec& xo, double t0, double t1, const Spher
   const double Pd_den = m.circ.C_d / h + 1.0 / m.circ.R_p + 1.0 / m.circ.R_d;
   const double Pd_rhs = m.circ.C_d / h * xo(kPd) + m.circ.P_sv / m.circ.R_d;
   const bcs::StepActivation act = bcs::step_activation(t0, t1, 0.0, m.period, m.act);
-  StepContext c{m, xo, h, m.atrial(t1), act, cavity_volume(m, xo(kY)), Pd_den, Pd_rhs};
+  StepContext c{m, xo, h, t1, m.chamber ? 0.0 : m.atrial(t1), act, cavity_volume(m, xo(kY)),
+                Pd_den, Pd_rhs};
   // Predictor: the contractile element follows the fibre strain extrapolated with y' (it tracks
   // e closely except under load); everything else starts from the old values.
   const double s_old = 1.0 + xo(kY) / m.R0, s_pred = s_old + h * xo(kV) / m.R0;
@@ -215,7 +224,7 @@ std::string SphereOptions::validate() const {
   return s.str();
 }
 
-ParameterSpace LumpedSphere::default_parameters() {
+ParameterSpace LumpedSphere::default_parameters(Atrium atrium) {
   // Sources: [C14] Caruel et al. 2014 (Biomech Model Mechanobiol 13:897) and the CCMLC2014-like
   // working set of docs/models.md s.2; [T] tuned so that the healthy beat meets docs/models.md s.7.
   std::vector<Parameter> p(kNumParams);
@@ -264,17 +273,46 @@ ParameterSpace LumpedSphere::default_parameters() {
       "exponential passive stiffening (docs/models.md s.2) [T: static EDP 5.5/7.8/13.5 mmHg at "
       "140/160/180 mL]");
   set(kBexp, "1", 1.0, 0.0, 50.0, "exponent b_exp of the passive stiffening (J1 - 3)^2 [T]");
+  if (atrium == Atrium::kChamber) {
+    // The atrial chamber (circulation::AtrialChamber) replaces P_at0 and P_at_kick.
+    // [KS06] Korakianitis & Shi 2006, Med Eng Phys 28:613, Table 1 (left atrium, pulmonary veins).
+    p.erase(p.begin() + kPatKick);
+    p.erase(p.begin() + kPat0);
+    auto add = [&](const char* name, const char* unit, double nominal, double lo, double hi,
+                   const char* doc, const char* family) {
+      p.push_back(Parameter{name, unit, nominal, lo, hi, doc, family, 0});
+    };
+    // Bounds: wide (elastances 0.0075-7.5 mmHg/mL, R_pv up to 7.5 mmHg s/mL). The 4096-point
+    // census finds 2 points whose periodic state the shooting does not reach in 400 beats
+    // (docs/models.md s.2.2); narrowing the box to 3.75 mmHg/mL and 0.75 mmHg s/mL moved the
+    // Sobol' points and gave 5, so the failures are not confined to the corners.
+    add("E_at_min", "Pa/m^3", 2.0e7, 1e6, 1e9, "passive atrial elastance, 0.15 mmHg/mL [KS06]",
+        "elastance");
+    add("E_at_max", "Pa/m^3", 5.33e7, 1e6, 1e9,
+        "atrial elastance at the peak of the kick, 0.40 mmHg/mL [KS06: E_pas + E_act]",
+        "elastance");
+    add("V_at0", "m^3", 4e-6, 0.0, 1e-4, "unstressed atrial volume, 4 mL [KS06]",
+        "unloaded_volume");
+    add("P_pv", "Pa", 1050.0, 0.0, 5e3,
+        "pulmonary-venous pressure, 7.9 mmHg [T: the healthy preset's mean atrial pressure]",
+        "preload_pressure");
+    add("R_pv", "Pa s/m^3", 8.0e5, 1e4, 1e9,
+        "pulmonary-venous resistance, 0.006 mmHg s/mL [KS06]", "preload_resistance");
+  }
   return ParameterSpace(std::move(p));
 }
 
 LumpedSphere::LumpedSphere(SphereOptions options)
     : LumpedSphere(options, default_parameters()) {}
 
-LumpedSphere::LumpedSphere(SphereOptions options, ParameterSpace parameters)
-    : options_(options), parameters_(std::move(parameters)) {
-  index_ = shell::global_indices(parameters_);
+LumpedSphere::LumpedSphere(SphereOptions options, ParameterSpace parameters, Atrium atrium)
+    : options_(options), parameters_(std::move(parameters)), atrium_(atrium) {
+  index_ = shell::global_indices(parameters_, atrium == Atrium::kChamber);
   index_.push_back(parameters_.index_or_throw("sigma0"));
+  if (atrium == Atrium::kChamber) atrium_index_ = shell::atrium_indices(parameters_);
 }
+
+int LumpedSphere::unknowns() const { return kUnknowns + (atrium_ == Atrium::kChamber ? 1 : 0); }
 
 std::vector<Channel> LumpedSphere::channels() const {
   std::vector<Channel> c = shell::circulation_channels();
@@ -293,6 +331,7 @@ std::vector<Channel> LumpedSphere::state_layout() const {
   std::vector<Channel> s = shell::state_head();
   const std::vector<Channel> active = shell::active_state_entries("");
   s.insert(s.end(), active.begin(), active.end());
+  if (atrium_ == Atrium::kChamber) s.push_back({"V_at", "m^3", "atrial volume (atrial chamber)"});
   s.push_back(shell::last_open_valve_entry());
   return s;
 }
@@ -303,28 +342,28 @@ std::unique_ptr<Simulator> LumpedSphere::clone() const {
 
 Status LumpedSphere::check_theta(const Eigen::Ref<const Eigen::VectorXd>& theta) const {
   if (theta.size() != parameters_.size()) return shell::check_theta(parameters_, options_, theta, 0, 1);
-  const Model m = unpack(theta, index_);
+  const Model m = unpack(theta, index_, atrium_index_);
   return shell::check_theta(parameters_, options_, theta, m.act.APD, m.period);
 }
 
 State LumpedSphere::initial_state(const Eigen::Ref<const Eigen::VectorXd>& theta) {
   State s;
   s.time = 0.0;
-  s.x = Eigen::VectorXd::Zero(kStateSize);
+  s.x = Eigen::VectorXd::Zero(unknowns() + 1);
   if (theta.size() != parameters_.size() || !theta.allFinite()) {
     s.x.setConstant(std::numeric_limits<double>::quiet_NaN());
     return s;
   }
   // Relaxed (shell::fill_relaxed_state), the contractile element at rest (e_c = e, no active
   // stress).
-  s.x(kEc) = shell::fill_relaxed_state(unpack(theta, index_), s.x);
-  s.x(kLastOpen) = static_cast<double>(circ::ValveRegime::kFilling);
+  s.x(kEc) = shell::fill_relaxed_state(unpack(theta, index_, atrium_index_), s.x);
+  s.x(unknowns()) = static_cast<double>(circ::ValveRegime::kFilling);
   return s;
 }
 
 Status LumpedSphere::step_to(State& state, const Eigen::Ref<const Eigen::VectorXd>& theta,
                              double t_end, int* newton_iterations, int* step_cuts) const {
-  const Model m = unpack(theta, index_);
+  const Model m = unpack(theta, index_, atrium_index_);
   auto step = [&](const Vec& xo, double ta, double tb, Vec& xn) {
     return newton_step(m, xo, ta, tb, options_, xn);
   };
@@ -335,13 +374,13 @@ Status LumpedSphere::step_to(State& state, const Eigen::Ref<const Eigen::VectorX
 Status LumpedSphere::advance(State& state, const Eigen::Ref<const Eigen::VectorXd>& theta,
                              double t_end) {
   if (Status st = check_theta(theta); !st.ok()) return st;
-  if (Status st = shell::check_advance(state, kStateSize, t_end); !st.ok()) return st;
+  if (Status st = shell::check_advance(state, unknowns() + 1, t_end); !st.ok()) return st;
   return step_to(state, theta, t_end, nullptr, nullptr);
 }
 
 Eigen::VectorXd LumpedSphere::sample(const State& state,
                                      const Eigen::Ref<const Eigen::VectorXd>& theta) const {
-  const Model m = unpack(theta, index_);
+  const Model m = unpack(theta, index_, atrium_index_);
   const auto& x = state.x;
   const double s = 1.0 + x(kY) / m.R0;
   const double C = s * s;
@@ -359,7 +398,7 @@ RunResult LumpedSphere::run(const Eigen::Ref<const Eigen::VectorXd>& theta) {
   return run_warm(theta, Eigen::VectorXd(), nullptr);
 }
 
-int LumpedSphere::warm_start_size() const { return ShootingWarmStart::packed_size(kUnknowns); }
+int LumpedSphere::warm_start_size() const { return ShootingWarmStart::packed_size(unknowns()); }
 
 RunResult LumpedSphere::run_warm(const Eigen::Ref<const Eigen::VectorXd>& theta,
                                  const Eigen::VectorXd& from, Eigen::VectorXd* produce) {
@@ -368,7 +407,7 @@ RunResult LumpedSphere::run_warm(const Eigen::Ref<const Eigen::VectorXd>& theta,
     return shell::failed_run(channels(), st);
   }
   return shell::run_periodic(
-      unpack(theta, index_), options_, channels(), initial_state(theta),
+      unpack(theta, index_, atrium_index_), options_, channels(), initial_state(theta),
       [&](State& s, double t1, int* its, int* cuts) { return step_to(s, theta, t1, its, cuts); },
       [&](const State& s) { return sample(s, theta); }, from.size() > 0 ? &from : nullptr,
       produce);

@@ -41,15 +41,24 @@ struct SphereOptions {
 // 3 isovolumic relaxation), P_d, e_fibre, e_c, k_c, tau_c, sigma_act, viscous_power.
 // The state is the eight unknowns plus last_open_valve (state_layout()); t = 0 of every beat is
 // the ventricular depolarisation, the atrial kick fills the last 0.12 s of the beat.
+//
+// Atrium::kChamber ("lumped-sphere-atrium"): the prescribed atrial pressure is replaced by an
+// atrial chamber (circulation::AtrialChamber; parameters E_at_min, E_at_max, V_at0, P_pv, R_pv
+// instead of P_at0, P_at_kick), and the state gains the atrial volume V_at before last_open_valve.
 class LumpedSphere final : public SteppableSimulator {
  public:
+  enum class Atrium { kPrescribed, kChamber };
   explicit LumpedSphere(SphereOptions options = {});
-  LumpedSphere(SphereOptions options, ParameterSpace parameters);
+  LumpedSphere(SphereOptions options, ParameterSpace parameters,
+               Atrium atrium = Atrium::kPrescribed);
 
   // The parameters with their healthy-preset nominal values, SI units, bounds and sources.
-  static ParameterSpace default_parameters();
+  static ParameterSpace default_parameters(Atrium atrium = Atrium::kPrescribed);
 
-  std::string name() const override { return "lumped-sphere"; }
+  std::string name() const override {
+    return atrium_ == Atrium::kChamber ? "lumped-sphere-atrium" : "lumped-sphere";
+  }
+  Atrium atrium() const { return atrium_; }
   const ParameterSpace& parameters() const override { return parameters_; }
   ParameterSpace& mutable_parameters() { return parameters_; }
   const SphereOptions& options() const { return options_; }
@@ -75,9 +84,13 @@ class LumpedSphere final : public SteppableSimulator {
   Status step_to(State& state, const Eigen::Ref<const Eigen::VectorXd>& theta, double t_end,
                  int* newton_iterations, int* step_cuts) const;
 
+  int unknowns() const;  // 8, or 9 with the atrial chamber
+
   SphereOptions options_;
   ParameterSpace parameters_;
+  Atrium atrium_ = Atrium::kPrescribed;
   std::vector<int> index_;  // position in parameters_ of each model parameter (by name)
+  std::vector<int> atrium_index_;  // of shell::atrium_names() (atrial chamber only)
 };
 
 }  // namespace sigmaheart::model::lumped

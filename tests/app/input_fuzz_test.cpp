@@ -199,6 +199,7 @@ INSTANTIATE_TEST_SUITE_P(Fuzz, ShippedConfig,
                                            "configs/specificity-cohort.yaml",
                                            "configs/specificity-foreign.yaml",
                                            "experiments/foreign-data/calibrate-foreign.yaml",
+                                           "experiments/foreign-data/calibrate-foreign-12.yaml",
                                            "experiments/sensitivity-bcs/sobol.yaml"),
                          [](const ::testing::TestParamInfo<std::string>& p) {
                            std::string n = fs::path(p.param).stem().string();

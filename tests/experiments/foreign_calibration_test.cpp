@@ -5,8 +5,9 @@
 // prior's, a status "converged", and an objective within 1.2 times that of the multi-start Ceres
 // reference (32 Sobol' points, 4 local runs, half-width 2 prior std) on the same prior and data.
 // The same numbers as experiments/foreign-data/run prints; label slow (1-4 min per case on 2 loaded
-// cores, mostly the reference). At writing 7 of the 8 cases pass; elastance-healthy fails (model form:
-// the reference misses both targets too; README.md, "Outcome").
+// cores, mostly the reference). The shipped config calibrates the sphere with an atrial chamber
+// (lumped-sphere-atrium, 14 parameters); with the prescribed atrial pressure
+// (calibrate-foreign-12.yaml) elastance-healthy failed (model form; README.md, "Outcome").
 #include "app/calibration_setup.h"
 #include "app/config.h"
 #include "estimation/forward_model.h"

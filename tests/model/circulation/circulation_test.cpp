@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <utility>
 
 namespace sigmaheart::model::circulation {
 namespace {
@@ -37,6 +38,8 @@ TEST(ValveFlow, DerivativesMatchFiniteDifferencesInEveryRegime) {
     EXPECT_NEAR(f.dq_dPar, (qv(P, P_ar + d).q - qv(P, P_ar - d).q) / (2 * d), 1e-15);
     EXPECT_NEAR(f.dqar_dPv, (qv(P + d, P_ar).q_ar - qv(P - d, P_ar).q_ar) / (2 * d), 1e-15);
     EXPECT_NEAR(f.dqar_dPar, (qv(P, P_ar + d).q_ar - qv(P, P_ar - d).q_ar) / (2 * d), 1e-15);
+    const auto qa = [&](double pat) { return valve_flow(P, P_ar, pat, c).q; };
+    EXPECT_NEAR(f.dq_dPat, (qa(P_at + d) - qa(P_at - d)) / (2 * d), 1e-15);
   }
 }
 
@@ -54,6 +57,57 @@ TEST(AtrialPressure, KicksOnceABeatJustBeforeDepolarisation) {
   EXPECT_NEAR(a(0.75 + 3 * 0.8), 1.5e3, 1e-6);  // periodic
   EXPECT_NEAR(a(0.8), 1e3, 1e-9);               // continuous at the beat start
   EXPECT_NEAR(a(0.7999999), 1e3, 1e-6 * 500.0 + 1e-3);
+}
+
+// The atrial chamber's backward-Euler step is solved exactly in every valve regime: the residual
+// of its volume balance vanishes at the returned P_at (to rounding), V_at = V0 + P_at / E, and the
+// derivatives in (P_v, P_ar) match central differences (the kinks lie 10+ Pa away).
+TEST(AtrialChamber, TheStepSolvesTheVolumeBalanceExactlyInEveryRegime) {
+  CirculationParameters c;
+  c.K_p = 5e-10;  // a visible leak, so that the closed regimes depend on P_at
+  const AtrialChamber a{.E_min = 2e7, .E_max = 5e7, .V0 = 4e-6, .P_pv = 1100.0, .R_pv = 8e5,
+                        .kick_duration = 0.12, .period = 0.8};
+  const double h = 1e-3, V_old = 6e-5;
+  int regimes_seen[3] = {0, 0, 0};
+  for (double t1 : {0.3, 0.74}) {  // passive, and at the kick
+    // (P_v, P_ar): filling; closed below the arteries; ejection (aortic open, atrium below P_ar)
+    for (auto [Pv, Par] : {std::pair{400.0, 1e4}, {5e3, 1e4}, {1.2e4, 1e4}}) {
+      const AtrialStep s = atrial_step(a, Pv, Par, V_old, h, t1, c);
+      const double E = a.elastance(t1);
+      const ValveFlow f = valve_flow(Pv, Par, s.P_at, c);
+      ++regimes_seen[static_cast<int>(f.regime)];
+      const double r = (s.V_at - V_old) / h - (a.P_pv - s.P_at) / a.R_pv + f.q_at;
+      EXPECT_LT(std::abs(r), 1e-12 * std::abs(a.P_pv / a.R_pv)) << "t1 " << t1 << " P_v " << Pv;
+      EXPECT_NEAR(s.V_at, a.V0 + s.P_at / E, 1e-18);
+      const double d = 1e-3;
+      auto P = [&](double pv, double par) { return atrial_step(a, pv, par, V_old, h, t1, c).P_at; };
+      EXPECT_NEAR(s.dPat_dPv, (P(Pv + d, Par) - P(Pv - d, Par)) / (2 * d), 1e-7);
+      EXPECT_NEAR(s.dPat_dPar, (P(Pv, Par + d) - P(Pv, Par - d)) / (2 * d), 1e-7);
+    }
+  }
+  EXPECT_GT(regimes_seen[0], 0);
+  EXPECT_GT(regimes_seen[1], 0);
+  EXPECT_GT(regimes_seen[2], 0);
+  // The kick raises the elastance from E_min to E_max at its middle, and is periodic.
+  EXPECT_DOUBLE_EQ(a.elastance(0.3), 2e7);
+  EXPECT_NEAR(a.elastance(0.74), 5e7, 1e-3);
+  EXPECT_NEAR(a.elastance(0.74 + 2 * 0.8), 5e7, 1e-3);
+}
+
+// With the atrium at the venous pressure and the ventricle far below it, the step is the
+// closed-form solution of the linear balance with the mitral valve open.
+TEST(AtrialChamber, TheFillingStepMatchesItsClosedForm) {
+  const CirculationParameters c;
+  const AtrialChamber a{.E_min = 2e7, .E_max = 2e7, .V0 = 4e-6, .P_pv = 1e3, .R_pv = 8e5,
+                        .kick_duration = 0.12, .period = 0.8};
+  const double h = 1e-3, V_old = 5e-5, Pv = 200.0, Par = 1e4;
+  const AtrialStep s = atrial_step(a, Pv, Par, V_old, h, 0.3, c);
+  // (V0 + P/E - V_old)/h = (P_pv - P)/R_pv - K_at (P - P_v)
+  const double P = ((V_old - a.V0) / h + a.P_pv / a.R_pv + c.K_at * Pv) /
+                   (1.0 / (a.E_min * h) + 1.0 / a.R_pv + c.K_at);
+  EXPECT_NEAR(s.P_at, P, 1e-9 * P);
+  EXPECT_NEAR(s.dPat_dPv, c.K_at / (1.0 / (a.E_min * h) + 1.0 / a.R_pv + c.K_at), 1e-15);
+  EXPECT_EQ(s.dPat_dPar, 0.0);
 }
 
 // Backward Euler on a constant inflow converges to the steady state

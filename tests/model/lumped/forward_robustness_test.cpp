@@ -1,6 +1,6 @@
 // The whole-box robustness census (sobol_census.h), built twice (tests/model/lumped/CMakeLists.txt):
-// lumped_forward_robustness_test (suite ForwardRobustness: 256 sphere, 64 regional points) and
-// lumped_forward_robustness_slow_test (suite ForwardRobustnessSlow: 4096 points each).
+// lumped_forward_robustness_test (suite ForwardRobustness: 256 points for each sphere, 64
+// regional) and lumped_forward_robustness_slow_test (suite ForwardRobustnessSlow: 4096 each).
 #include "tests/model/lumped/sobol_census.h"
 
 namespace sigmaheart::model::lumped {
@@ -10,6 +10,14 @@ TEST(SIGMAHEART_CENSUS_SUITE, SphereGivesABeatAtEverySobolPointOfItsBox) {
   LumpedSphere sim;
   const int n = SIGMAHEART_CENSUS_SPHERE_POINTS;
   expect_no_failure(census(sim, n), "sphere, " + std::to_string(n) + " points");
+}
+
+// lumped-sphere-atrium: the atrial chamber's five parameters over their bounds as well.
+TEST(SIGMAHEART_CENSUS_SUITE, SphereWithAnAtrialChamberGivesABeatAtEverySobolPointOfItsBox) {
+  using A = LumpedSphere::Atrium;
+  LumpedSphere sim({}, LumpedSphere::default_parameters(A::kChamber), A::kChamber);
+  const int n = SIGMAHEART_CENSUS_SPHERE_POINTS;
+  expect_no_failure(census(sim, n), "sphere with atrial chamber, " + std::to_string(n) + " points");
 }
 
 TEST(SIGMAHEART_CENSUS_SUITE, RegionalGivesABeatAtEverySobolPointOfItsBox) {

@@ -545,6 +545,84 @@ TEST(LumpedSphere, FiniteDifferenceJacobianOfTheCurvesConverges) {
   }
 }
 
+// ---------------------------------------------------------------------------------------------
+// lumped-sphere-atrium: the atrial chamber (circulation::AtrialChamber) instead of a prescribed
+// atrial pressure.
+
+// Over the periodic beat the atrium passes on exactly what the pulmonary veins deliver, and the
+// ventricle ejects what it received: backward Euler conserves volume step by step, so the sums of
+// h times the flows at the step ends agree up to the beat-to-beat change of the volumes.
+TEST(LumpedSphereAtrium, OverAPeriodicBeatTheAtriumPassesOnThePulmonaryInflow) {
+  using A = LumpedSphere::Atrium;
+  SphereOptions o;
+  o.periodic_tolerance = 1e-10;
+  const ParameterSpace space = LumpedSphere::default_parameters(A::kChamber);
+  LumpedSphere sim(o, space, A::kChamber);
+  EXPECT_EQ(sim.name(), "lumped-sphere-atrium");
+  EXPECT_EQ(sim.state_layout().size(), 10u);
+  EXPECT_FALSE(space.index("P_at0").has_value());
+  const RunResult r = sim.run(space.nominal());
+  ASSERT_TRUE(r.status.ok()) << r.status.message;
+  EXPECT_EQ(r.info.step_cuts, 0);  // every recorded step is one backward-Euler step
+  const Trajectory& tr = r.trajectory;
+  const double P_pv = space.nominal()(*space.index("P_pv"));
+  const double R_pv = space.nominal()(*space.index("R_pv"));
+  const Eigen::VectorXd P_at = tr.channel("P_at"), q_at = tr.channel("q_at"),
+                        q_ar = tr.channel("q_ar");
+  double inflow = 0.0, mitral = 0.0, aortic = 0.0;
+  for (int k = 1; k < tr.samples(); ++k) {
+    const double h = tr.times(k) - tr.times(k - 1);
+    inflow += h * (P_pv - P_at(k)) / R_pv;
+    mitral += h * q_at(k);
+    aortic += h * q_ar(k);
+  }
+  const Indices ix = indices(tr);
+  const double sv = ix.sv * kMilliLitre;
+  EXPECT_GT(ix.sv, 40.0);
+  EXPECT_NEAR(inflow, mitral, 1e-6 * sv);
+  EXPECT_NEAR(mitral, aortic, 1e-6 * sv);
+  // The atrial pressure rises while the mitral valve is closed (the atrium fills from the veins:
+  // the v wave) and falls when it opens: its maximum over the beat exceeds its end-diastolic value.
+  EXPECT_GT(P_at.maxCoeff(), P_at(0) + 0.5 * kMmHg);
+}
+
+// A stiff atrium fed through a small resistance holds the pulmonary-venous pressure: as R_pv -> 0
+// the beat converges to the prescribed-atrium sphere with P_at0 = P_pv and no kick. The atrial
+// pressure deviates from P_pv by R_pv times the flow through the resistance, so the volumes'
+// difference falls in proportion to R_pv (first order: a tenth of R_pv, a tenth of the gap).
+TEST(LumpedSphereAtrium, AStiffWellFedAtriumConvergesToThePrescribedPressure) {
+  using A = LumpedSphere::Atrium;
+  const double P_pv = 1050.0, E = 1e9;
+  ParameterSpace prescribed = LumpedSphere::default_parameters();
+  prescribed.set_nominal("P_at0", P_pv);
+  prescribed.set_nominal("P_at_kick", 0.0);
+  const RunResult b = run_with(prescribed);
+  ASSERT_TRUE(b.status.ok()) << b.status.message;
+  const Indices ib = indices(b.trajectory);
+  double gap[2] = {0.0, 0.0};
+  int n = 0;
+  for (double R_pv : {1e5, 1e4}) {
+    ParameterSpace chamber = LumpedSphere::default_parameters(A::kChamber);
+    chamber.set_nominal("E_at_min", E);
+    chamber.set_nominal("E_at_max", E);
+    chamber.set_nominal("R_pv", R_pv);
+    chamber.set_nominal("P_pv", P_pv);
+    const RunResult a = LumpedSphere({}, chamber, A::kChamber).run(chamber.nominal());
+    ASSERT_TRUE(a.status.ok()) << a.status.message;
+    // Every step: P_pv - P_at = R_pv (q_at + dV_at/dt), V_at = V0 + P_at / E (backward Euler).
+    const Trajectory& tr = a.trajectory;
+    const Eigen::VectorXd q = tr.channel("q_at"), P_at = tr.channel("P_at");
+    for (int k = 1; k < tr.samples(); ++k) {
+      const double dV_dt = (P_at(k) - P_at(k - 1)) / E / (tr.times(k) - tr.times(k - 1));
+      ASSERT_NEAR(P_pv - P_at(k), R_pv * (q(k) + dV_dt), 1e-9 * P_pv) << "t " << tr.times(k);
+    }
+    const Indices ia = indices(tr);
+    gap[n++] = std::abs(ia.edv - ib.edv) + std::abs(ia.esv - ib.esv);
+  }
+  EXPECT_LT(gap[1], 0.15 * gap[0]);  // first order in R_pv
+  EXPECT_LT(gap[1], 1.0);            // [mL], EDV and ESV together
+}
+
 TEST(SphereOptions, ValidateNamesTheBadField) {
   SphereOptions o;
   EXPECT_EQ(o.validate(), "");
