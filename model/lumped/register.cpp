@@ -1,6 +1,9 @@
 #include "model/lumped/register.h"
 
 #include <memory>
+#include <string>
+#include <utility>
+#include <vector>
 
 namespace sigmaheart::model::lumped {
 
@@ -99,31 +102,31 @@ std::vector<Preset> regional_presets(const ParameterSpace& regional) {
   return out;
 }
 
-void register_lumped_models(ModelRegistry& registry) {
-  registry.add(ModelSetup{
-      "lumped-sphere",
-      "0D Bestel-Clement-Sorine sphere with valves and a two-stage Windkessel (Caruel 2014)",
-      [](const OptionReader& numerics) {
+// The sphere's entry, with a prescribed atrial pressure or an atrial chamber.
+ModelSetup sphere_setup(std::string name, std::string doc, LumpedSphere::Atrium atrium,
+                        std::vector<Preset> presets) {
+  return ModelSetup{
+      std::move(name), std::move(doc),
+      [atrium](const OptionReader& numerics) {
         const SphereOptions options = read_sphere_options(numerics);
-        return ModelBuild(LumpedSphere::default_parameters(),
-                          [options](const ParameterSpace& p) -> std::unique_ptr<Simulator> {
-                            return std::make_unique<LumpedSphere>(options, p);
+        return ModelBuild(LumpedSphere::default_parameters(atrium),
+                          [options, atrium](const ParameterSpace& p) -> std::unique_ptr<Simulator> {
+                            return std::make_unique<LumpedSphere>(options, p, atrium);
                           });
       },
-      sphere_presets()});
-  registry.add(ModelSetup{
+      std::move(presets)};
+}
+
+void register_lumped_models(ModelRegistry& registry) {
+  registry.add(sphere_setup(
+      "lumped-sphere",
+      "0D Bestel-Clement-Sorine sphere with valves and a two-stage Windkessel (Caruel 2014)",
+      LumpedSphere::Atrium::kPrescribed, sphere_presets()));
+  registry.add(sphere_setup(
       "lumped-sphere-atrium",
       "the lumped sphere with a left-atrial chamber (time-varying elastance fed from the pulmonary "
       "veins, Korakianitis & Shi 2006) instead of a prescribed atrial pressure",
-      [](const OptionReader& numerics) {
-        const SphereOptions options = read_sphere_options(numerics);
-        using A = LumpedSphere::Atrium;
-        return ModelBuild(LumpedSphere::default_parameters(A::kChamber),
-                          [options](const ParameterSpace& p) -> std::unique_ptr<Simulator> {
-                            return std::make_unique<LumpedSphere>(options, p, A::kChamber);
-                          });
-      },
-      {}});
+      LumpedSphere::Atrium::kChamber, {}));
   registry.add(ModelSetup{
       "lumped-regional",
       "17 AHA wall patches on the BCS sphere (MultiPatch, Walmsley 2015); regional volumes V_segXX",
