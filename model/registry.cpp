@@ -12,8 +12,8 @@ const std::vector<std::string>& parameter_families() {
       "activation_rate",      "relaxation_rate",      "activation_duration", "active_stiffness",
       "active_viscosity",     "crossbridge_kinetics", "passive_stiffness", "passive_viscosity",
       "geometry",             "wall_density",         "period",            "valve_conductance",
-      "afterload_resistance", "afterload_compliance", "venous_pressure",   "preload_pressure", "preload_resistance",
-      "cavity_compliance",    "elastance",            "unloaded_volume"};
+      "afterload_resistance", "afterload_compliance", "venous_pressure",   "preload_pressure",
+      "preload_resistance",   "cavity_compliance",    "elastance",         "unloaded_volume"};
   return families;
 }
 

@@ -48,7 +48,7 @@ struct AtrialPressure {
 // that ends at each beat start (s the time since the kick began), 0 elsewhere; in [0, 1].
 double atrial_activation(double t, double period, double kick_duration);
 
-// The left atrium as a chamber (docs/models.md s.2.3): a time-varying elastance filled from the
+// The left atrium as a chamber (docs/models.md s.2.2): a time-varying elastance filled from the
 // pulmonary veins through a resistance, emptied through the mitral valve,
 //   P_at = E_at(t) (V_at - V_at0),  E_at(t) = E_at_min + (E_at_max - E_at_min) a(t),
 //   dV_at/dt = (P_pv - P_at) / R_pv - q_at,
@@ -67,7 +67,6 @@ struct AtrialChamber {
   double period = 0.85;        // heart period [s]
   double elastance(double t) const;
   double pressure(double t, double V_at) const { return elastance(t) * (V_at - V0); }
-  std::string validate() const;  // empty when valid
 };
 
 // Which valve is open, from the valve law.
@@ -98,16 +97,17 @@ struct ValveFlow {
 ValveFlow valve_flow(double P_v, double P_ar, double P_at, const CirculationParameters& c);
 
 // One backward-Euler step of the atrial chamber over [t1 - h, t1], with the mitral flow of
-// valve_flow() at the new (P_v, P_ar): the atrial pressure P_at at t1 that solves
-//   (V0 + P_at / E_at(t1) - V_old) / h = (P_pv - P_at) / R_pv - q_at(P_v, P_ar, P_at),
+// valve_flow() at the new (P_v, P_ar) and E = a.elastance(t1) (computed once per step by the
+// caller): the atrial pressure P_at at t1 that solves
+//   (V0 + P_at / E - V_old) / h = (P_pv - P_at) / R_pv - q_at(P_v, P_ar, P_at),
 // exactly (the residual is continuous, piecewise linear and strictly increasing in P_at, with
 // kinks at P_v and P_ar only), the atrial volume and the derivatives of P_at in (P_v, P_ar).
 struct AtrialStep {
   double P_at = 0.0, V_at = 0.0;
   double dPat_dPv = 0.0, dPat_dPar = 0.0;
 };
-AtrialStep atrial_step(const AtrialChamber& a, double P_v, double P_ar, double V_old, double h,
-                       double t1, const CirculationParameters& c);
+AtrialStep atrial_step(const AtrialChamber& a, double E, double P_v, double P_ar, double V_old,
+                       double h, const CirculationParameters& c);
 
 // Backward-Euler residuals of the Windkessel (units m^3/s) and their derivatives with respect to
 // (P_ar, P_d) at t^{n+1}; q_ar enters with its own derivative through valve_flow().

@@ -179,11 +179,11 @@ double next_time(double t, double t_end, double dt, double period);
 // their derivatives in u = (v, P_v, P_ar, ...) in columns 0..2 of J (dy/dv = h). `c` is the step
 // context: xo (the state at t^n), h, P_at, V_old, Pd_den = C_d/h + 1/R_p + 1/R_d and
 // Pd_rhs = C_d/h P_d^n + P_sv/R_d.
-// With an atrial chamber (m.chamber), `atrium` is given: its V_old and t1 in, and the atrial
-// step out (circulation::atrial_step, exact); P_at then depends on (P_v, P_ar), and so does the
-// mitral flow of the cavity row (chain rule). Without a chamber, P_at = c.P_at.
+// With an atrial chamber (m.chamber), `atrium` is given: its V_old and its elastance E at t^{n+1}
+// in, and the atrial step out (circulation::atrial_step, exact); P_at then depends on (P_v, P_ar),
+// and so does the mitral flow of the cavity row (chain rule). Without a chamber, P_at = c.P_at.
 struct AtriumRows {
-  double V_old = 0.0, t1 = 0.0;  // in
+  double V_old = 0.0, E = 0.0;   // in
   circulation::AtrialStep step;  // out
 };
 template <class Context, class Res, class Jac>
@@ -195,7 +195,7 @@ double circulation_rows(const Shell& m, const Context& c, double y, double Pv, d
   const double dPd_dPar = 1.0 / (m.circ.R_p * c.Pd_den);
   double P_at = c.P_at;
   if (atrium != nullptr) {
-    atrium->step = circ::atrial_step(m.atrium, Pv, Par, atrium->V_old, h, atrium->t1, m.circ);
+    atrium->step = circ::atrial_step(m.atrium, atrium->E, Pv, Par, atrium->V_old, h, m.circ);
     P_at = atrium->step.P_at;
   }
   circ::ValveFlow q = circ::valve_flow(Pv, Par, P_at, m.circ);

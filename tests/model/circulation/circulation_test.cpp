@@ -72,7 +72,7 @@ TEST(AtrialChamber, TheStepSolvesTheVolumeBalanceExactlyInEveryRegime) {
   for (double t1 : {0.3, 0.74}) {  // passive, and at the kick
     // (P_v, P_ar): filling; closed below the arteries; ejection (aortic open, atrium below P_ar)
     for (auto [Pv, Par] : {std::pair{400.0, 1e4}, {5e3, 1e4}, {1.2e4, 1e4}}) {
-      const AtrialStep s = atrial_step(a, Pv, Par, V_old, h, t1, c);
+      const AtrialStep s = atrial_step(a, a.elastance(t1), Pv, Par, V_old, h, c);
       const double E = a.elastance(t1);
       const ValveFlow f = valve_flow(Pv, Par, s.P_at, c);
       ++regimes_seen[static_cast<int>(f.regime)];
@@ -80,7 +80,9 @@ TEST(AtrialChamber, TheStepSolvesTheVolumeBalanceExactlyInEveryRegime) {
       EXPECT_LT(std::abs(r), 1e-12 * std::abs(a.P_pv / a.R_pv)) << "t1 " << t1 << " P_v " << Pv;
       EXPECT_NEAR(s.V_at, a.V0 + s.P_at / E, 1e-18);
       const double d = 1e-3;
-      auto P = [&](double pv, double par) { return atrial_step(a, pv, par, V_old, h, t1, c).P_at; };
+      auto P = [&](double pv, double par) {
+        return atrial_step(a, a.elastance(t1), pv, par, V_old, h, c).P_at;
+      };
       EXPECT_NEAR(s.dPat_dPv, (P(Pv + d, Par) - P(Pv - d, Par)) / (2 * d), 1e-7);
       EXPECT_NEAR(s.dPat_dPar, (P(Pv, Par + d) - P(Pv, Par - d)) / (2 * d), 1e-7);
     }
@@ -101,7 +103,7 @@ TEST(AtrialChamber, TheFillingStepMatchesItsClosedForm) {
   const AtrialChamber a{.E_min = 2e7, .E_max = 2e7, .V0 = 4e-6, .P_pv = 1e3, .R_pv = 8e5,
                         .kick_duration = 0.12, .period = 0.8};
   const double h = 1e-3, V_old = 5e-5, Pv = 200.0, Par = 1e4;
-  const AtrialStep s = atrial_step(a, Pv, Par, V_old, h, 0.3, c);
+  const AtrialStep s = atrial_step(a, a.elastance(0.3), Pv, Par, V_old, h, c);
   // (V0 + P/E - V_old)/h = (P_pv - P)/R_pv - K_at (P - P_v)
   const double P = ((V_old - a.V0) / h + a.P_pv / a.R_pv + c.K_at * Pv) /
                    (1.0 / (a.E_min * h) + 1.0 / a.R_pv + c.K_at);
