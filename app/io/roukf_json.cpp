@@ -21,6 +21,32 @@ std::string interval(const std::string& lo, const std::string& hi) {
   return s.str();
 }
 
+nlohmann::ordered_json finite_or_null(double v) {
+  return std::isfinite(v) ? nlohmann::ordered_json(v) : nlohmann::ordered_json(nullptr);
+}
+
+// With a truth: how many parameters lie inside their +-2 std, against what a right spread gives
+// (each with probability 0.954), and the joint check d2 = e^T P_eta^-1 e <= chi2_0.95(p)
+// (RoukfSummary::truth_d2; docs/estimation.md s.4.5).
+std::string truth_consistency_lines(const estimation::RoukfSummary& summary) {
+  const Eigen::Index p = summary.truth_z.size();
+  if (p == 0) return "";
+  const double q = std::erf(2.0 / std::sqrt(2.0));  // P(|N(0,1)| <= 2) = 0.9545
+  std::ostringstream t;
+  t << "truth inside +-2 std: " << (summary.truth_z.array().abs() <= 2.0).count() << " of " << p
+    << " (a right spread: " << format_number(p * q, 3) << " +- " << format_number(std::sqrt(p * q * (1 - q)), 2)
+    << " expected; all " << p << " with probability " << format_number(std::pow(q, static_cast<double>(p)), 2)
+    << ")";
+  if (std::isfinite(summary.truth_d2)) {
+    t << "\njoint: (eta - truth)^T P^-1 (eta - truth) = " << format_number(summary.truth_d2, 4)
+      << (summary.truth_d2 <= summary.truth_d2_limit ? " <= " : " > ") << format_number(summary.truth_d2_limit, 4)
+      << " = chi2_0.95(" << p << "): the truth is "
+      << (summary.truth_d2 <= summary.truth_d2_limit ? "inside" : "OUTSIDE") << " the 95 % credible ellipsoid";
+  }
+  t << "\n";
+  return t.str();
+}
+
 }  // namespace
 
 void write_roukf_json(const std::filesystem::path& path, const std::string& name,
@@ -68,6 +94,7 @@ void write_roukf_json(const std::filesystem::path& path, const std::string& name
     if (problem.filter.truth) {
       e["truth"] = (*problem.filter.truth)(i);
       e["error_percent"] = pass_error(pass_error.rows() - 1, i);
+      if (summary.truth_z.size() > i) e["truth_standardised_error"] = summary.truth_z(i);
     }
     j["parameters"][summary.parameter_names[k]] = e;
   }
@@ -77,6 +104,11 @@ void write_roukf_json(const std::filesystem::path& path, const std::string& name
     }
     const int passes = summary.passes_to_within_10_percent;
     j["passes_to_within_10_percent"] = passes > 0 ? nlohmann::ordered_json(passes) : nullptr;
+    if (summary.truth_z.size() > 0) {
+      j["truth_inside_2std"] = (summary.truth_z.array().abs() <= 2.0).count();
+      j["truth_mahalanobis_squared"] = finite_or_null(summary.truth_d2);
+      j["truth_mahalanobis_squared_limit_95"] = finite_or_null(summary.truth_d2_limit);
+    }
   }
   j["provenance"] = provenance_json(provenance);
   write_text_file(path, [&](std::ostream& f) { f << j.dump(2) << "\n"; });
@@ -137,6 +169,7 @@ std::string roukf_report(const RoukfResults& results) {
     const int passes = summary.passes_to_within_10_percent;
     t << "\npasses until every parameter is within 10 % of the truth: "
       << (passes > 0 ? std::to_string(passes) : std::string("not reached")) << "\n";
+    t << truth_consistency_lines(summary);
   }
   return t.str();
 }

@@ -136,6 +136,22 @@ double log_det(const Eigen::LLT<Eigen::MatrixXd>& llt) {
   return 2.0 * llt.matrixL().toDenseMatrix().diagonal().array().log().sum();
 }
 
+// RoukfSummary::truth_z, truth_d2 and truth_d2_limit for a run that has an estimate.
+void truth_consistency(RoukfSummary& summary, const Prior& prior, const Eigen::VectorXd& truth) {
+  const Eigen::Index p = truth.size();
+  if (!summary.has_estimate() || summary.eta.size() != p || summary.eta_covariance.rows() != p) return;
+  Eigen::VectorXd e(p);
+  for (Eigen::Index i = 0; i < p; ++i) {
+    e(i) = summary.eta(i) - prior.parameters[static_cast<size_t>(i)].to_eta(truth(i));
+  }
+  summary.truth_z = e.cwiseQuotient(summary.eta_covariance.diagonal().cwiseSqrt());
+  const Eigen::LLT<Eigen::MatrixXd> llt(summary.eta_covariance);
+  if (llt.info() == Eigen::Success && e.allFinite()) {
+    summary.truth_d2 = e.dot(llt.solve(e));
+    summary.truth_d2_limit = chi_square_quantile(static_cast<int>(p), 0.95);
+  }
+}
+
 }  // namespace
 
 RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const Prior& prior,
@@ -175,6 +191,7 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const Prior& 
                                                         : static_cast<int>(summary.pass_fractions.size());
       summary.pass_error_percent = pass_errors_percent(summary, *options.truth, passes);
       summary.passes_to_within_10_percent = passes_to_within(summary.pass_error_percent, 10.0);
+      truth_consistency(summary, prior, *options.truth);
     }
     summary.wall_seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
@@ -762,10 +779,12 @@ double chi_square_quantile(int dof, double prob) {
   double z = 0.0;  // standard normal quantile
   if (prob == 0.025) {
     z = -1.959963984540054;
+  } else if (prob == 0.95) {
+    z = 1.6448536269514722;
   } else if (prob == 0.975) {
     z = 1.959963984540054;
   } else {
-    throw std::invalid_argument("chi_square_quantile: only the 2.5 % and 97.5 % quantiles");
+    throw std::invalid_argument("chi_square_quantile: only the 2.5 %, 95 % and 97.5 % quantiles");
   }
   if (dof < 1) throw std::invalid_argument("chi_square_quantile: dof must be >= 1");
   const double k = dof;

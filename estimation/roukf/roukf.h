@@ -36,6 +36,7 @@
 #include <Eigen/Core>
 
 #include <functional>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -210,6 +211,14 @@ struct RoukfSummary {
   // parameter is within 10 % (-1: never).
   Eigen::MatrixXd pass_error_percent;
   int passes_to_within_10_percent = -1;
+  // With RoukfOptions::truth and an estimate: e = eta - to_eta(truth), its standardised components
+  // e_i / sqrt(P_eta,ii), and the joint statistic d2 = e^T P_eta^-1 e. For a right posterior d2 is
+  // chi-square with p = size(eta) degrees of freedom, so d2 <= chi2_0.95(p) (truth_d2_limit) with
+  // probability 0.95: the joint form of "every parameter inside its +-2 std", which for p
+  // independent parameters holds only with probability 0.954^p (0.45 at p = 17).
+  Eigen::VectorXd truth_z;
+  double truth_d2 = std::numeric_limits<double>::quiet_NaN();
+  double truth_d2_limit = std::numeric_limits<double>::quiet_NaN();
   model::State state;              // final analysed model state
   Eigen::MatrixXd L, U;            // final factors (x = (state.x, eta))
   int members = 0;                 // r
@@ -250,8 +259,8 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const Prior& 
 
 // Quantile of the chi-square distribution with `dof` degrees of freedom at probability `prob`, by the
 // Wilson-Hilferty cube-root normal approximation (Wilson & Hilferty 1931, PNAS 17:684, eq. 2;
-// relative error below 1 % for dof >= 10 at 2.5 % and 97.5 %). prob in {0.025, 0.975}
-// (the normal quantile +-1.959964); other values throw std::invalid_argument.
+// relative error below 1 % for dof >= 10 at 2.5 % and 97.5 %). prob in {0.025, 0.95, 0.975}
+// (the normal quantiles -+1.959964, 1.644854); other values throw std::invalid_argument.
 double chi_square_quantile(int dof, double prob);
 
 // RoukfOptions::refine through SteppableSimulator::with_time_step_factor(2^-level).

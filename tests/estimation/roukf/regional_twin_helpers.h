@@ -69,6 +69,8 @@ inline void print(const TwinOutcome& t) {
   for (Eigen::Index s = 0; s < z.size(); ++s) {
     std::printf("segment %2d: (eta - truth) / std = %+.2f\n", static_cast<int>(s) + 1, z(s));
   }
+  std::printf("joint: (eta - truth)^T P^-1 (eta - truth) = %.2f (chi2_0.95(%d) = %.2f)\n",
+              t.summary.truth_d2, static_cast<int>(z.size()), t.summary.truth_d2_limit);
 }
 
 // The final errors: every segment within 10 % of its truth, and the consistency statistic (the

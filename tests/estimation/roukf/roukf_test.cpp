@@ -552,6 +552,17 @@ TEST(Roukf, SummaryCarriesTheDeltaStdAndTheErrorsAgainstATruthAfterEachPass) {
   EXPECT_EQ(passes_to_within(s.pass_error_percent, 1e9), 1);
   EXPECT_EQ(passes_to_within(s.pass_error_percent, -1.0), -1);
   EXPECT_EQ(s.passes_to_within_10_percent, passes_to_within(s.pass_error_percent, 10.0));
+  // The truth's standardised errors and the joint statistic e^T P^-1 e (identity transforms:
+  // e = theta - truth), here from the 2 x 2 inverse written out.
+  const Eigen::Vector2d e = s.theta - *o.truth;
+  const Eigen::Matrix2d& P = s.eta_covariance;
+  const double det = P(0, 0) * P(1, 1) - P(0, 1) * P(1, 0);
+  const double d2 = (P(1, 1) * e(0) * e(0) - 2.0 * P(0, 1) * e(0) * e(1) + P(0, 0) * e(1) * e(1)) / det;
+  ASSERT_EQ(s.truth_z.size(), 2);
+  EXPECT_NEAR(s.truth_z(0), e(0) / std::sqrt(P(0, 0)), 1e-12 * std::abs(s.truth_z(0)));
+  EXPECT_NEAR(s.truth_z(1), e(1) / std::sqrt(P(1, 1)), 1e-12 * std::abs(s.truth_z(1)));
+  EXPECT_NEAR(s.truth_d2, d2, 1e-10 * d2);
+  EXPECT_EQ(s.truth_d2_limit, chi_square_quantile(2, 0.95));
 }
 
 TEST(Roukf, AnEstimateLeavingTheParameterBoundsEndsTheRunWithTheStepsDone) {
@@ -602,6 +613,9 @@ TEST(Roukf, ChiSquareQuantilesMatchTheTables) {
   EXPECT_NEAR(chi_square_quantile(10, 0.975), 20.483, 0.001 * 20.483);
   EXPECT_NEAR(chi_square_quantile(100, 0.025), 74.222, 0.001 * 74.222);
   EXPECT_NEAR(chi_square_quantile(100, 0.975), 129.561, 0.001 * 129.561);
+  // chi2_0.95 (the same tables): the joint truth check of a 17-segment run uses the last.
+  EXPECT_NEAR(chi_square_quantile(10, 0.95), 18.307, 0.001 * 18.307);
+  EXPECT_NEAR(chi_square_quantile(17, 0.95), 27.587, 0.001 * 27.587);
   EXPECT_THROW(chi_square_quantile(10, 0.5), std::invalid_argument);
 }
 

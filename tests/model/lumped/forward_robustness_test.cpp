@@ -53,5 +53,18 @@ TEST(SIGMAHEART_CENSUS_SUITE, PointsWhereTheWatchdogReturnedToAFarStateArePeriod
   expect_no_failure(r, "regional, census points 2491 2958");
 }
 
+// Census points 987 and 2865 of the sphere with an atrial chamber (docs/models.md s.2.2): a
+// distal Windkessel that never empties (R_d C_d 9400 and 4900 s) by the opening of the aortic
+// valve. After the first failed watch every Newton step was damped (~3 % taken) and the shooting
+// crept linearly, periodic only after 450 and 753 beats; a damped step that lowers |G| by less than
+// a tenth now re-arms the full step.
+TEST(SIGMAHEART_CENSUS_SUITE, PointsWhereDampedStepsCreptNextToANeutralArterialModeArePeriodic) {
+  using A = LumpedSphere::Atrium;
+  LumpedSphere sim({}, LumpedSphere::default_parameters(A::kChamber), A::kChamber);
+  const Census c = census(sim, 4096, {987, 2865});
+  EXPECT_EQ(c.points, 2);
+  expect_no_failure(c, "sphere with atrial chamber, census points 987 2865");
+}
+
 }  // namespace
 }  // namespace sigmaheart::model::lumped
