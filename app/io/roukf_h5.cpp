@@ -136,6 +136,12 @@ void write_roukf_h5(const std::filesystem::path& path, const RoukfResults& resul
     h5.write_matrix("/truth/pass_error", summary.pass_error_percent, "%", {}, names);
     h5.set_attribute("/truth/pass_error", "description", "|estimate - truth| / truth after each pass");
     h5.set_attribute("/truth", "passes_to_within_10_percent", summary.passes_to_within_10_percent);
+    if (summary.truth_z.size() > 0) {  // the spread against the truth (docs/estimation.md s.4.5)
+      h5.write_vector("/truth/standardised_error", summary.truth_z, "1");
+      h5.set_attribute("/truth/standardised_error", "description", "(eta - eta_truth) / std of eta");
+      h5.set_attribute("/truth", "mahalanobis_squared", summary.truth_d2);
+      h5.set_attribute("/truth", "mahalanobis_squared_limit_95", summary.truth_d2_limit);
+    }
   }
 
   h5.create_group("/summary");

@@ -39,6 +39,20 @@ TEST(PersonalizeCommand, OnePassMarksTheInfarctedSegmentsLow) {
   EXPECT_EQ(f.read_strings("/observations/units")[6], "mL");
   EXPECT_EQ(f.string_attribute("/steps/theta", "units"), "per parameter, see /estimate/units");
   EXPECT_EQ(f.read_vector("/truth/values").size(), 17);
+  // The spread against the truth (docs/estimation.md s.4.5): JSON and HDF5 agree, the count inside
+  // +-2 std is that of the standardised errors, the joint limit is chi2_0.95(17) = 27.587 (tables;
+  // Wilson-Hilferty to 0.1 %), and the report states the joint check.
+  const Eigen::VectorXd z = f.read_vector("/truth/standardised_error");
+  ASSERT_EQ(z.size(), 17);
+  for (int s = 1; s <= 17; ++s) {
+    EXPECT_EQ(j["parameters"][seg(s)]["truth_standardised_error"].get<double>(), z(s - 1));
+  }
+  EXPECT_EQ(j["truth_inside_2std"].get<int>(), (z.array().abs() <= 2.0).count());
+  const double d2 = j["truth_mahalanobis_squared"].get<double>();
+  EXPECT_EQ(f.double_attribute("/truth", "mahalanobis_squared"), d2);
+  EXPECT_GE(d2, 0.0);
+  EXPECT_NEAR(j["truth_mahalanobis_squared_limit_95"].get<double>(), 27.587, 0.001 * 27.587);
+  EXPECT_NE(r.out.find("joint: (eta - truth)^T P^-1 (eta - truth) = "), std::string::npos) << r.out;
   // The +-2 sigma band contains the estimate at every step.
   const Eigen::MatrixXd lo = f.read_matrix("/steps/theta_lower"), hi = f.read_matrix("/steps/theta_upper");
   EXPECT_TRUE(((lo.array() <= theta.array()) && (theta.array() <= hi.array())).all());
