@@ -38,6 +38,9 @@ TEST(RoukfRegionalTwin, TwoStdIntervalsCoverTheTruthInNinetyToNinetyNinePercentO
   }
   EXPECT_GE(nis_inside, 90);
   EXPECT_LE(nis_inside, 99);
+  // Measured 90 (2026-11-26), at the band's edge: the split-pass estimate ends about one posterior
+  // std short of the MAP along the best-informed direction, also with noise-free data
+  // (experiments/regional-personalization/README.md, "The joint check finds an offset here").
   EXPECT_GE(joint_inside, 90);
   EXPECT_LE(joint_inside, 99);
 }
