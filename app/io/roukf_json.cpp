@@ -21,10 +21,6 @@ std::string interval(const std::string& lo, const std::string& hi) {
   return s.str();
 }
 
-nlohmann::ordered_json finite_or_null(double v) {
-  return std::isfinite(v) ? nlohmann::ordered_json(v) : nlohmann::ordered_json(nullptr);
-}
-
 // With a truth: how many parameters lie inside their +-2 std, against what a right spread gives
 // (each with probability 0.954), and the joint check d2 = e^T P_eta^-1 e <= chi2_0.95(p)
 // (RoukfSummary::truth_d2; docs/estimation.md s.4.5).
@@ -106,8 +102,8 @@ void write_roukf_json(const std::filesystem::path& path, const std::string& name
     j["passes_to_within_10_percent"] = passes > 0 ? nlohmann::ordered_json(passes) : nullptr;
     if (summary.truth_z.size() > 0) {
       j["truth_inside_2std"] = (summary.truth_z.array().abs() <= 2.0).count();
-      j["truth_mahalanobis_squared"] = finite_or_null(summary.truth_d2);
-      j["truth_mahalanobis_squared_limit_95"] = finite_or_null(summary.truth_d2_limit);
+      j["truth_mahalanobis_squared"] = summary.truth_d2;  // NaN is written as null
+      j["truth_mahalanobis_squared_limit_95"] = summary.truth_d2_limit;
     }
   }
   j["provenance"] = provenance_json(provenance);

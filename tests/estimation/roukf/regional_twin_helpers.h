@@ -47,16 +47,8 @@ inline model::lumped::RegionalVentricle five_patch_model() {
   return model::lumped::RegionalVentricle(mo);
 }
 
-// (eta - eta_true) / std of every segment at the end.
-inline Eigen::VectorXd standardised_errors(const TwinOutcome& t) {
-  const Eigen::Index n = t.twin.truth_sigma0.size();
-  Eigen::VectorXd z(n);
-  for (Eigen::Index s = 0; s < n; ++s) {
-    const double eta_true = std::log(t.twin.truth_sigma0(s) / t.twin.nominal_sigma0);
-    z(s) = (t.summary.eta(s) - eta_true) / std::sqrt(t.summary.eta_covariance(s, s));
-  }
-  return z;
-}
+// (eta - eta_true) / std of every segment at the end (RoukfSummary::truth_z).
+inline const Eigen::VectorXd& standardised_errors(const TwinOutcome& t) { return t.summary.truth_z; }
 
 inline void print(const TwinOutcome& t) {
   std::printf("%s\n", t.summary.full_report().c_str());
