@@ -241,7 +241,7 @@ void parse_estimate(const Config& config, const ConfigNode& est, PersonalizeProb
 void parse_filter(const ConfigNode& f, PersonalizeProblem& out) {
   f.check_keys({"beats", "passes", "first_fraction", "pass_growth", "tempering", "sigma_scale",
                 "forgetting", "r_inflation", "sigma_points", "kappa", "spin_up", "failure_policy",
-                "max_retries", "shrink", "inflation", "threads"});
+                "max_retries", "shrink", "inflation", "threads", "map_iterations", "map_tolerance"});
   estimation::RoukfOptions& o = out.filter;
   o.beats = f.optional<int>("beats", 1);
   if (o.beats < 1) f["beats"].fail("expected an integer >= 1");
@@ -259,6 +259,10 @@ void parse_filter(const ConfigNode& f, PersonalizeProblem& out) {
   if (!(o.sigma_scale > 0 && o.sigma_scale <= 1)) f["sigma_scale"].fail("expected a number in (0, 1]");
   o.forgetting = f.optional<double>("forgetting", o.forgetting);
   if (!(o.forgetting > 0 && o.forgetting <= 1)) f["forgetting"].fail("expected a number in (0, 1]");
+  o.map_iterations = f.optional<int>("map_iterations", o.map_iterations);
+  if (o.map_iterations < 0) f["map_iterations"].fail("expected an integer >= 0 (0: no MAP refinement)");
+  o.map_tolerance = f.optional<double>("map_tolerance", o.map_tolerance);
+  if (!(o.map_tolerance > 0)) f["map_tolerance"].fail("expected a positive number of posterior standard deviations");
   out.r_inflation = f.optional<double>("r_inflation", 1.0);
   if (!(out.r_inflation > 0)) f["r_inflation"].fail("expected a positive factor");
   if (f.has("sigma_points")) {

@@ -79,6 +79,8 @@ void BM_RoukfTwinExperiment(benchmark::State& bench) {
   }
   const Eigen::MatrixXd err = estimation::per_beat_relative_errors(s, twin.truth_sigma0);
   bench.counters["max_err_last_pass_pct"] = 100 * err.row(err.rows() - 1).maxCoeff();
+  bench.counters["max_err_final_pct"] = s.error_percent.maxCoeff();  // after the MAP refinement
+  bench.counters["map_runs"] = s.map_runs;
   bench.counters["passes"] = static_cast<double>(s.pass_fractions.size());
   bench.counters["nis_mean"] = s.nis_mean;
   bench.counters["steps"] = static_cast<double>(s.steps.size());

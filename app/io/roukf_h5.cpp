@@ -46,7 +46,10 @@ void write_roukf_h5(const std::filesystem::path& path, const RoukfResults& resul
   h5.write_vector("/estimate/prior", summary.theta_prior, per);
   h5.write_vector("/estimate/prior_std", summary.theta_prior_std, per);
   h5.write_vector("/estimate/value", final_theta, per);
-  h5.set_attribute("/estimate/value", "description", "T(eta mean) after the last step");
+  h5.set_attribute("/estimate/value", "description",
+                   summary.map_steps > 0 || summary.map_converged
+                       ? "T(eta) at the MAP point of the whole data (Gauss-Newton from the filter's estimate)"
+                       : "T(eta mean) after the last step");
   h5.write_vector("/estimate/std", results.std(), per);
   h5.set_attribute("/estimate/std", "description", "|dtheta/deta| sqrt(P_eta) (delta method)");
   if (summary.has_estimate()) {
@@ -54,6 +57,19 @@ void write_roukf_h5(const std::filesystem::path& path, const RoukfResults& resul
     h5.write_vector("/estimate/upper", summary.theta_upper, per);
     h5.write_vector("/estimate/eta", summary.eta, "1");
     h5.write_matrix("/estimate/eta_covariance", summary.eta_covariance, "1", names, names);
+  }
+  if (summary.map_runs > 0 && summary.eta_filter.size() == p) {
+    // The filter's own estimate and the Gauss-Newton refinement after it (docs/estimation.md s.4.7).
+    h5.write_vector("/map_refinement/eta_filter", summary.eta_filter, "1");
+    h5.write_matrix("/map_refinement/eta_covariance_filter", summary.eta_covariance_filter, "1", names, names);
+    h5.set_attribute("/map_refinement", "steps", summary.map_steps);
+    h5.set_attribute("/map_refinement", "converged", summary.map_converged ? 1 : 0);
+    h5.set_attribute("/map_refinement", "note", summary.map_note);
+    h5.set_attribute("/map_refinement", "shift_filter_std", summary.map_shift_std);
+    h5.set_attribute("/map_refinement", "last_step_std", summary.map_last_step_std);
+    h5.set_attribute("/map_refinement", "objective_at_filter_estimate", summary.map_statistic_filter);
+    h5.set_attribute("/map_refinement", "objective_at_estimate", summary.map_statistic);
+    h5.set_attribute("/map_refinement", "runs", summary.map_runs);
   }
 
   // Observations in display units (mL).
@@ -135,6 +151,10 @@ void write_roukf_h5(const std::filesystem::path& path, const RoukfResults& resul
     h5.write_vector("/truth/values", *problem.filter.truth, per);
     h5.write_matrix("/truth/pass_error", summary.pass_error_percent, "%", {}, names);
     h5.set_attribute("/truth/pass_error", "description", "|estimate - truth| / truth after each pass");
+    if (summary.error_percent.size() == p) {
+      h5.write_vector("/truth/error", summary.error_percent, "%");
+      h5.set_attribute("/truth/error", "description", "|estimate - truth| / truth of the final estimate");
+    }
     h5.set_attribute("/truth", "passes_to_within_10_percent", summary.passes_to_within_10_percent);
     if (summary.truth_z.size() > 0) {  // the spread against the truth (docs/estimation.md s.4.5)
       h5.write_vector("/truth/standardised_error", summary.truth_z, "1");

@@ -36,11 +36,12 @@ std::optional<RoukfPassMode> parse_roukf_pass_mode(const std::string& text) {
   return enum_from_string(kRoukfPassModeNames, text);
 }
 
-constexpr std::array<EnumName<RoukfTermination>, 6> kRoukfTerminationNames{{
+constexpr std::array<EnumName<RoukfTermination>, 7> kRoukfTerminationNames{{
     {RoukfTermination::kCompleted, "completed"}, {RoukfTermination::kMemberFailed, "member failed"},
     {RoukfTermination::kCancelled, "cancelled"}, {RoukfTermination::kInvalidInput, "invalid input"},
     {RoukfTermination::kNumericalFailure, "numerical failure"},
     {RoukfTermination::kEstimateOutOfBounds, "estimate out of bounds"},
+    {RoukfTermination::kMapNotConverged, "MAP refinement not converged"},
 }};
 const char* to_string(RoukfTermination t) { return enum_to_string(kRoukfTerminationNames, t); }
 
@@ -90,6 +91,8 @@ std::string RoukfOptions::validate() const {
   if (max_subupdates < 1) return "roukf: max_subupdates must be >= 1";
   if (!(first_fraction > 0.0 && first_fraction <= 1.0)) return "roukf: first_fraction must lie in (0, 1]";
   if (!(pass_growth > 0.0 && std::isfinite(pass_growth))) return "roukf: pass_growth must be positive";
+  if (map_iterations < 0) return "roukf: map_iterations must be >= 0";
+  if (!(map_tolerance > 0.0 && std::isfinite(map_tolerance))) return "roukf: map_tolerance must be positive";
   if (max_retries < 0) return "roukf: max_retries must be >= 0";
   if (!(shrink > 0 && shrink < 1)) return "roukf: shrink must lie in (0, 1)";
   if (!(inflation >= 0 && std::isfinite(inflation))) return "roukf: inflation must be >= 0";
@@ -191,6 +194,7 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const Prior& 
                                                         : static_cast<int>(summary.pass_fractions.size());
       summary.pass_error_percent = pass_errors_percent(summary, *options.truth, passes);
       summary.passes_to_within_10_percent = passes_to_within(summary.pass_error_percent, 10.0);
+      if (summary.has_estimate()) summary.error_percent = relative_errors_percent(summary.theta, *options.truth);
       truth_consistency(summary, prior, *options.truth);
     }
     summary.wall_seconds =
@@ -428,6 +432,190 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const Prior& 
     summary.map_dof = dof;
     summary.map_frames = used;
     return {};
+  };
+  // Gauss-Newton on the whole-data MAP objective after the split passes (RoukfOptions::
+  // map_iterations; docs/estimation.md s.4.7). With whitened residuals w(eta) = R_k^-1/2 (y_k -
+  // h_k(eta)) stacked over the present entries, W = R_k^-1/2 dh/deta (central differences) and
+  // the prior's b = S0^-1 (eta - eta0) (P0 = S0 S0^T):
+  //   A = W^T W + P0^-1,  d = A^-1 (W^T w - P0^-1 (eta - eta0)),  Phi = |w|^2 + |b|^2
+  // (the quasi-Newton iteration of Tarantola 2005, Inverse Problem Theory, s.3.2, with the
+  // Gauss-Newton Hessian; the Laplace covariance A^-1 at the end).
+  struct Entry { int frame, channel; };
+  std::vector<Entry> entries;
+  std::vector<std::pair<int, Eigen::MatrixXd>> whiten;  // first entry of a frame, R_k^-1/2 (lower solve)
+  for (int k = 0; k < frames; ++k) {
+    const int first = static_cast<int>(entries.size());
+    for (int c = 0; c < m_all; ++c) {
+      if (std::isfinite(data.values(k, c))) entries.push_back({k, c});
+    }
+    const int m = static_cast<int>(entries.size()) - first;
+    if (m == 0) continue;
+    Eigen::MatrixXd Rk(m, m);
+    for (int a = 0; a < m; ++a) {
+      for (int b = 0; b < m; ++b) Rk(a, b) = options.R(entries[first + a].channel, entries[first + b].channel);
+    }
+    whiten.emplace_back(first, Eigen::MatrixXd(Eigen::LLT<Eigen::MatrixXd>(Rk).matrixL()));
+  }
+  const int n_obs = static_cast<int>(entries.size());
+  // Whitens a stacked vector (or the columns of a matrix) of residuals frame by frame.
+  auto whitened = [&](Eigen::MatrixXd v) {
+    for (const auto& [first, Lk] : whiten) {
+      const auto m = Lk.rows();
+      v.middleRows(first, m) = Lk.triangularView<Eigen::Lower>().solve(v.middleRows(first, m));
+    }
+    return v;
+  };
+  Eigen::VectorXd y_obs(n_obs);
+  for (int e = 0; e < n_obs; ++e) y_obs(e) = data.values(entries[e].frame, entries[e].channel);
+  // Runs every column of etas over the whole data from the initial state; row i holds the
+  // observations at the present entries, then the final model state.
+  auto whole_data_runs = [&](const Eigen::MatrixXd& etas) {
+    const int width = n_obs + ny;
+    summary.map_runs += static_cast<int>(etas.cols());
+    summary.member_runs += static_cast<int>(etas.cols());
+    return ensemble.map_rows(
+        static_cast<int>(etas.cols()), width,
+        [&](int i, int worker, Eigen::Ref<Eigen::VectorXd> row) -> model::Status {
+          auto& sim = static_cast<SteppableForwardModel&>(ensemble.worker_model(worker)).simulator();
+          const Eigen::VectorXd theta = theta_of(etas.col(i));
+          model::State st = init;
+          if (!options.initial_state && options.initial_state_per_member) st = sim.initial_state(theta);
+          int e = 0;
+          for (int k = 0; k < frames; ++k) {  // to the last frame, where the filter's state is
+            if (model::Status status = sim.advance(st, theta, data.times(k)); !status.ok()) return status;
+            if (e == n_obs || entries[e].frame != k) continue;
+            const Eigen::VectorXd z = sim.sample(st, theta);
+            for (; e < n_obs && entries[e].frame == k; ++e) {
+              row(e) = z(observed_channels[static_cast<size_t>(entries[e].channel)]);
+            }
+          }
+          if (st.x.size() != ny) {
+            return model::Status::Error(model::StatusCode::kInvalidArgument, "the model state changed size");
+          }
+          row.tail(ny) = st.x;
+          return model::Status::Ok();
+        });
+  };
+  const Eigen::MatrixXd S0 = prior.sqrt_covariance_eta();
+  const Eigen::MatrixXd P0inv = Eigen::LLT<Eigen::MatrixXd>(prior.covariance_eta()).solve(Eigen::MatrixXd::Identity(p, p));
+  auto refine_map = [&]() {
+    summary.eta_filter = x.tail(p);
+    summary.eta_covariance_filter = summary.eta_covariance;
+    const Eigen::LLT<Eigen::MatrixXd> filter_llt(summary.eta_covariance);
+    if (filter_llt.info() != Eigen::Success) {
+      summary.map_note = "not refined: the filter's covariance is not positive definite";
+      return;
+    }
+    const Eigen::VectorXd h = (0.1 * summary.eta_covariance.diagonal().cwiseSqrt()).cwiseMax(1e-8);
+    // The point eta, its objective and Gauss-Newton system from one batch of 2p + 1 members.
+    struct Point {
+      Eigen::VectorXd eta, state;
+      double phi = 0.0;
+      Eigen::MatrixXd A;
+      Eigen::VectorXd gradient;  // W^T w - P0^-1 (eta - eta0) = -grad Phi / 2: A d = gradient
+    };
+    auto evaluate = [&](const Eigen::VectorXd& eta, Point& out) -> std::string {
+      Eigen::MatrixXd etas = eta.replicate(1, 2 * p + 1);
+      for (int j = 0; j < p; ++j) {
+        etas(j, 1 + 2 * j) += h(j);
+        etas(j, 2 + 2 * j) -= h(j);
+      }
+      const EnsembleResult res = whole_data_runs(etas);
+      for (int i = 0; i < 2 * p + 1; ++i) {
+        if (!res.status[static_cast<size_t>(i)].ok()) {
+          return "a whole-data member failed (" +
+                 describe_theta(space, theta_of(etas.col(i)), estimated) + "): " +
+                 res.status[static_cast<size_t>(i)].message;
+        }
+      }
+      const Eigen::MatrixXd obs = res.Z.leftCols(n_obs).transpose();  // n_obs x (2p + 1)
+      const Eigen::VectorXd w = whitened(y_obs - obs.col(0));
+      Eigen::MatrixXd H(n_obs, p);  // d h / d eta
+      for (int j = 0; j < p; ++j) H.col(j) = (obs.col(1 + 2 * j) - obs.col(2 + 2 * j)) / (2.0 * h(j));
+      const Eigen::MatrixXd W = whitened(H);  // = -dw/deta
+      const Eigen::VectorXd b = S0.triangularView<Eigen::Lower>().solve(eta - eta0);
+      out.eta = eta;
+      out.state = res.Z.row(0).tail(ny).transpose();
+      out.phi = w.squaredNorm() + b.squaredNorm();
+      out.A = W.transpose() * W + P0inv;
+      out.gradient = W.transpose() * w - P0inv * (eta - eta0);
+      if (!std::isfinite(out.phi) || !out.A.allFinite()) return "the misfit or its Jacobian is not finite";
+      return {};
+    };
+    Point at;
+    if (std::string why = evaluate(x.tail(p), at); !why.empty()) {
+      summary.map_note = "not refined: " + why;
+      return;
+    }
+    summary.map_statistic_filter = at.phi;
+    std::ostringstream note;
+    for (int it = 0;; ++it) {
+      const Eigen::LDLT<Eigen::MatrixXd> A_ldlt(at.A);
+      const Eigen::VectorXd d = A_ldlt.solve(at.gradient);
+      const double length = std::sqrt(std::max(0.0, d.dot(at.A * d)));
+      if (A_ldlt.info() != Eigen::Success || !d.allFinite()) {
+        note << "stopped: the Gauss-Newton system is singular";
+        break;
+      }
+      summary.map_last_step_std = length;
+      if (length < options.map_tolerance && out_of_bounds(space, theta_of(at.eta + d), estimated).empty()) {
+        // Converged: the last (short) step is taken without another batch; the Laplace
+        // covariance is that of the point just evaluated.
+        x.tail(p) = at.eta + d;
+        x.head(ny) = at.state;
+        summary.map_converged = true;
+        note << "converged after " << summary.map_steps << " step(s): the next step is "
+             << std::setprecision(3) << length << " posterior std";
+        break;
+      }
+      if (it == options.map_iterations) {
+        note << "stopped after " << summary.map_steps << " step(s) with a step of " << std::setprecision(3)
+             << length << " posterior std left (map_iterations)";
+        break;
+      }
+      Point next;
+      double lambda = 1.0;
+      bool accepted = false;
+      std::string failed;
+      for (int halving = 0; halving <= 4; ++halving, lambda *= 0.5) {
+        // A point outside the simulator's bounds (possible where a transform does not bound them)
+        // counts as a step that does not lower the objective.
+        if (!out_of_bounds(space, theta_of(at.eta + lambda * d), estimated).empty()) continue;
+        failed = evaluate(at.eta + lambda * d, next);
+        if (!failed.empty()) break;
+        if (next.phi <= at.phi) {
+          accepted = true;
+          break;
+        }
+      }
+      if (!accepted) {
+        note << "stopped after " << summary.map_steps << " step(s): "
+             << (failed.empty() ? "a step halved 4 times did not lower the objective" : failed);
+        break;
+      }
+      at = std::move(next);
+      ++summary.map_steps;
+      x.tail(p) = at.eta;
+      x.head(ny) = at.state;
+    }
+    summary.map_note = note.str();
+    if (summary.map_steps == 0 && !summary.map_converged) return;  // the filter's estimate stays
+    const Eigen::MatrixXd P = at.A.llt().solve(Eigen::MatrixXd::Identity(p, p));
+    const Eigen::VectorXd eta = x.tail(p);
+    const Eigen::VectorXd shift = eta - summary.eta_filter;
+    summary.map_shift_std = std::sqrt(shift.dot(filter_llt.solve(shift)));
+    summary.eta = eta;
+    summary.eta_covariance = 0.5 * (P + P.transpose());
+    const Eigen::VectorXd std_eta = summary.eta_covariance.diagonal().cwiseSqrt();
+    for (int j = 0; j < p; ++j) {
+      const Transform& tr = prior[j].transform;
+      const double a = tr.to_theta(eta(j) - 2 * std_eta(j));
+      const double b = tr.to_theta(eta(j) + 2 * std_eta(j));
+      summary.theta(j) = tr.to_theta(eta(j));
+      summary.theta_lower(j) = std::min(a, b);
+      summary.theta_upper(j) = std::max(a, b);
+    }
+    summary.theta_std = prior.theta_std(eta, std_eta);
   };
   // Passes: kRepeat continues in time over `beats` copies of the beat; kSplit (multiple data
   // assimilation, Emerick & Reynolds 2013, Comput Geosci 55:3, Algorithm 1) restarts every pass
@@ -754,6 +942,7 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const Prior& 
   }
   if (split) {
     if (assimilated < 1.0 - 1e-12) assimilated += fraction;  // the last pass took the rest
+    if (options.map_iterations > 0) refine_map();
     // Consistency with the whole data set: 2 x the MAP objective at the estimate,
     // sum_k r_k^T R^-1 r_k + (eta - eta0)^T P0^-1 (eta - eta0), r_k = y_k - h_k(eta). On a
     // linear-Gaussian model at the exact posterior mean this equals
@@ -772,6 +961,11 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const Prior& 
   summary.state = model::State{t_prev, x.head(ny)};
   summary.L = L;
   summary.U = U;
+  if (split && options.map_iterations > 0 && !summary.map_converged) {
+    return finish(RoukfTermination::kMapNotConverged,
+                  "roukf: all frames assimilated; MAP refinement: " + summary.map_note +
+                      "; the estimate is the last accepted point, not the MAP");
+  }
   return finish(RoukfTermination::kCompleted, "all frames assimilated");
 }
 
@@ -825,6 +1019,13 @@ std::string RoukfSummary::brief_report() const {
   if (!pass_fractions.empty()) {
     s << ", " << pass_fractions.size() << " split passes (first fraction " << std::setprecision(3)
       << pass_fractions.front() << std::fixed << std::setprecision(2) << ")";
+  }
+  if (map_runs > 0) {
+    s << ", MAP refinement: " << map_note;
+    if (std::isfinite(map_shift_std)) {
+      s << ", moved " << std::setprecision(3) << map_shift_std << std::fixed << std::setprecision(2)
+        << " filter std";
+    }
   }
   if (nis_frames > 0) {
     s << ", mean NIS (" << nis_source << ") " << nis_mean << " (95 % band " << nis_band_lower << "-" << nis_band_upper

@@ -129,6 +129,19 @@ struct RoukfOptions {
   RoukfPassMode pass_mode = RoukfPassMode::kRepeat;
   double first_fraction = 1e-3;  // kSplit: phi_1, in (0, 1]
   double pass_growth = 1.0;      // kSplit: information a pass may add, relative to the spread
+  // kSplit: after the last pass, at most `map_iterations` Gauss-Newton steps on the whole-data MAP
+  // objective Phi(eta) = sum_k r_k^T R^-1 r_k + (eta - eta0)^T P0^-1 (eta - eta0), started at the
+  // filter's estimate (docs/estimation.md s.4.7). The split passes end about one posterior std
+  // from the MAP along the best-informed direction on the regional twins, also without noise; the
+  // steps remove that. Each step runs 2p + 1 whole-data members (central differences of the
+  // observations in eta, step 0.1 posterior std), in parallel through the ensemble; it stops when
+  // a step is shorter than `map_tolerance` posterior standard deviations (sqrt(d^T A d), A the
+  // Gauss-Newton Hessian). The covariance reported is then the Laplace one, A^-1. A step that does
+  // not lower Phi is halved (4 times at most); a failed member keeps the last accepted point. Each
+  // such end, and the iteration limit, is recorded in RoukfSummary::map_note and ends the run as
+  // kMapNotConverged (the estimate is not the MAP). 0: off.
+  int map_iterations = 5;
+  double map_tolerance = 0.01;
   // Full parameter vector for the parameters that are not estimated; empty: the nominal values.
   Eigen::VectorXd base_theta;
   // Initial model state; empty: simulator.initial_state(theta at the prior mean).
@@ -190,8 +203,14 @@ struct RoukfOptions {
 // failure policy), numerical failures (a covariance factor that is not positive definite, a
 // non-finite update) and an analysed parameter outside the simulator's bounds
 // (kEstimateOutOfBounds) end the run with the steps done so far; run_roukf never throws for them.
+//
+// kMapNotConverged: the filter completed but the MAP refinement after split passes
+// (RoukfOptions::map_iterations) did not reach its tolerance (iteration limit, a failed member, a
+// step that cannot lower the objective): the estimate is the last accepted point, not the MAP, and
+// RoukfSummary::map_note says why. Like every outcome but kCompleted it is not a success.
 enum class RoukfTermination {
   kCompleted, kMemberFailed, kCancelled, kInvalidInput, kNumericalFailure, kEstimateOutOfBounds,
+  kMapNotConverged,
 };
 const char* to_string(RoukfTermination t);
 
@@ -211,6 +230,9 @@ struct RoukfSummary {
   // parameter is within 10 % (-1: never).
   Eigen::MatrixXd pass_error_percent;
   int passes_to_within_10_percent = -1;
+  // With RoukfOptions::truth: 100 |theta - truth| / |truth| of the final estimate (after the MAP
+  // refinement when it ran; else the last row of pass_error_percent).
+  Eigen::VectorXd error_percent;
   // With RoukfOptions::truth and an estimate: e = eta - to_eta(truth), its standardised components
   // e_i / sqrt(P_eta,ii), and the joint statistic d2 = e^T P_eta^-1 e. For a right posterior d2 is
   // chi-square with p = size(eta) degrees of freedom, so d2 <= chi2_0.95(p) (truth_d2_limit) with
@@ -242,6 +264,21 @@ struct RoukfSummary {
   std::string nis_source;
   double map_statistic = 0.0;
   int map_dof = 0, map_frames = 0;
+  // kSplit with map_iterations > 0: the Gauss-Newton refinement after the passes. map_steps
+  // accepted steps; map_shift_std the distance of the final estimate from the filter's, in the
+  // filter's posterior standard deviations (sqrt(d^T P_filter^-1 d)); map_last_step_std the last
+  // step's length in posterior std (below map_tolerance when map_converged); map_runs the whole-data
+  // members run; map_note how it ended, in words. eta_filter and eta_covariance_filter keep the
+  // filter's own estimate.
+  int map_steps = 0;
+  bool map_converged = false;
+  double map_shift_std = std::numeric_limits<double>::quiet_NaN();
+  double map_last_step_std = std::numeric_limits<double>::quiet_NaN();
+  double map_statistic_filter = std::numeric_limits<double>::quiet_NaN();  // Phi at the filter's estimate
+  int map_runs = 0;
+  std::string map_note;
+  Eigen::VectorXd eta_filter;
+  Eigen::MatrixXd eta_covariance_filter;
   std::vector<double> pass_fractions;  // kSplit: phi_b of every pass run
   double wall_seconds = 0.0;
 

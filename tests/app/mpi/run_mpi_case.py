@@ -25,9 +25,12 @@ CASES = {
     "calibrate": (["calibrate", "{src}/configs/calibrate-volunteer.yaml", "-o", "{out}/r.h5",
                    "--summary", "{out}/r.json"],
                   ["r.json"], 0),
+    # One pass and one Gauss-Newton step of the MAP refinement (docs/estimation.md s.4.7): the
+    # refinement stops at its limit, so every rank exits 1 and the results are written all the same.
     "personalize": (["personalize", "{src}/configs/personalize-lad-infarct.yaml", "-o", "{out}/r.h5",
-                     "--summary", "{out}/r.json", "--set", "personalize.filter.beats=1"],
-                    ["r.json"], 0),
+                     "--summary", "{out}/r.json", "--set", "personalize.filter.beats=1",
+                     "--set", "personalize.filter.map_iterations=1"],
+                    ["r.json"], 1),
     "sensitivity": (["sensitivity", "{src}/configs/sensitivity-ishigami.yaml", "-o", "{out}/r.h5",
                      "--summary", "{out}/r.json", "--set", "sensitivity.sobol.N=256",
                      "--set", "sensitivity.sobol.bootstrap=20"], ["r.json"], 0),
