@@ -154,6 +154,18 @@ Prior linear_prior() {
   return prior;
 }
 
+// linear_prior() with log transforms: theta = theta_ref exp(eta), eta ~ N(0, std^2).
+Prior log_prior() {
+  Prior prior = linear_prior();
+  for (auto& q : prior.parameters) {
+    q.transform = Transform{TransformKind::kLog, q.mean_eta};
+    q.lower = 0.0;
+    q.theta_nominal = q.mean_eta;
+    q.mean_eta = 0.0;
+  }
+  return prior;
+}
+
 RoukfOptions linear_options() {
   RoukfOptions o;
   o.R = Eigen::Vector2d(0.05 * 0.05, 0.08 * 0.08).asDiagonal();
@@ -258,13 +270,7 @@ TEST(Roukf, OneAnalysisWithSimplexPointsEqualsTheUnscentedTransformUpdate) {
   sim.nonlinear = true;
   RoukfData data = make_data(sim, 1);
   RoukfOptions o = linear_options();
-  Prior prior = linear_prior();
-  for (auto& q : prior.parameters) {  // log transforms: theta = theta_ref exp(eta)
-    q.transform = Transform{TransformKind::kLog, q.mean_eta};
-    q.lower = 0.0;
-    q.theta_nominal = q.mean_eta;
-    q.mean_eta = 0.0;
-  }
+  const Prior prior = log_prior();
   const RoukfSummary s = run_roukf(sim, prior, data, o);
   ASSERT_TRUE(s.ok()) << s.message;
 
@@ -351,6 +357,16 @@ LinearSimulator correlated_start() {
   return sim;
 }
 
+// Split passes (at most 12, first fraction 0.01), every member spun up from its own start.
+RoukfOptions split_options() {
+  RoukfOptions o = linear_options();
+  o.initial_state_per_member = true;
+  o.pass_mode = RoukfPassMode::kSplit;
+  o.beats = 12;
+  o.first_fraction = 0.01;
+  return o;
+}
+
 // Tempered sub-updates (Zanetti 2012) and scaled points are exact on a linear-Gaussian model:
 // every step holds the Kalman filter's state and covariance, however the frame is split.
 TEST(Roukf, TemperedSubUpdatesAndScaledPointsEqualTheKalmanFilter) {
@@ -383,11 +399,7 @@ TEST(Roukf, TemperedSubUpdatesAndScaledPointsEqualTheKalmanFilter) {
 TEST(Roukf, SplitPassesEndAtTheOnePassKalmanPosterior) {
   const LinearSimulator sim = correlated_start();
   const RoukfData data = make_data(sim, 8);
-  RoukfOptions o = linear_options();
-  o.initial_state_per_member = true;
-  o.pass_mode = RoukfPassMode::kSplit;
-  o.beats = 12;
-  o.first_fraction = 0.01;
+  RoukfOptions o = split_options();
   const RoukfSummary s = run_roukf(sim, linear_prior(), data, o);
   ASSERT_TRUE(s.ok()) << s.message;
   const auto kf = kalman(sim, data, o);
@@ -422,11 +434,7 @@ TEST(Roukf, SplitPassesEndAtTheOnePassKalmanPosterior) {
 TEST(Roukf, MapRefinementKeepsTheKalmanPosteriorOnALinearModel) {
   const LinearSimulator sim = correlated_start();
   const RoukfData data = make_data(sim, 8);
-  RoukfOptions o = linear_options();
-  o.initial_state_per_member = true;
-  o.pass_mode = RoukfPassMode::kSplit;
-  o.beats = 12;
-  o.first_fraction = 0.01;
+  RoukfOptions o = split_options();
   const RoukfSummary s = run_roukf(sim, linear_prior(), data, o);
   ASSERT_TRUE(s.ok()) << s.message;
   EXPECT_TRUE(s.map_converged) << s.map_note;
@@ -467,18 +475,8 @@ TEST(Roukf, MapRefinementLandsOnTheMapPointOfANonlinearModel) {
   LinearSimulator sim = correlated_start();
   sim.nonlinear = true;
   const RoukfData data = make_data(sim, 8);
-  Prior prior = linear_prior();
-  for (auto& q : prior.parameters) {  // log transforms: theta = theta_ref exp(eta)
-    q.transform = Transform{TransformKind::kLog, q.mean_eta};
-    q.lower = 0.0;
-    q.theta_nominal = q.mean_eta;
-    q.mean_eta = 0.0;
-  }
-  RoukfOptions o = linear_options();
-  o.initial_state_per_member = true;
-  o.pass_mode = RoukfPassMode::kSplit;
-  o.beats = 12;
-  o.first_fraction = 0.01;
+  const Prior prior = log_prior();
+  RoukfOptions o = split_options();
   const RoukfSummary s = run_roukf(sim, prior, data, o);
   ASSERT_TRUE(s.ok()) << s.message;
   ASSERT_TRUE(s.map_converged) << s.map_note;
@@ -540,11 +538,7 @@ TEST(Roukf, MapRefinementLandsOnTheMapPointOfANonlinearModel) {
 TEST(Roukf, AFailedMemberOfTheMapRefinementKeepsTheFilterEstimate) {
   LinearSimulator sim = correlated_start();
   const RoukfData data = make_data(sim, 8);
-  RoukfOptions o = linear_options();
-  o.initial_state_per_member = true;
-  o.pass_mode = RoukfPassMode::kSplit;
-  o.beats = 12;
-  o.first_fraction = 0.01;
+  RoukfOptions o = split_options();
   o.map_iterations = 0;
   const RoukfSummary plain = run_roukf(sim, linear_prior(), data, o);
   ASSERT_TRUE(plain.ok()) << plain.message;
@@ -571,18 +565,8 @@ TEST(Roukf, AMapRefinementAtItsIterationLimitIsNotASuccess) {
   LinearSimulator sim = correlated_start();
   sim.nonlinear = true;
   const RoukfData data = make_data(sim, 8);
-  Prior prior = linear_prior();
-  for (auto& q : prior.parameters) {
-    q.transform = Transform{TransformKind::kLog, q.mean_eta};
-    q.lower = 0.0;
-    q.theta_nominal = q.mean_eta;
-    q.mean_eta = 0.0;
-  }
-  RoukfOptions o = linear_options();
-  o.initial_state_per_member = true;
-  o.pass_mode = RoukfPassMode::kSplit;
-  o.beats = 12;
-  o.first_fraction = 0.01;
+  const Prior prior = log_prior();
+  RoukfOptions o = split_options();
   o.map_iterations = 1;
   o.map_tolerance = 1e-9;
   const RoukfSummary s = run_roukf(sim, prior, data, o);
