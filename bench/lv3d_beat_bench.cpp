@@ -23,8 +23,11 @@
 // 7.11 s; medium 1 thread UMFPACK 37.9 s, AMG 147 s (growth exponents 1.29 and 1.47 in the
 // unknowns). The fine mesh was not run. docs/models.md s.4.8 discusses why AMG loses here.
 //   build/bench/lv3d_beat_bench --benchmark_filter='TenSteps/(0/[12]/[12]|1/1/[12])/'
+#include "estimation/roukf/roukf.h"
 #include "model/fem/electromechanics.h"
 #include "model/fem/register.h"
+
+#include <string>
 
 #include <benchmark/benchmark.h>
 #include <omp.h>
@@ -103,6 +106,64 @@ BENCHMARK(BM_Lv3dBeat)
     ->Unit(benchmark::kSecond)
     ->Iterations(1)
     ->UseRealTime();
+
+// One ROUKF step on the coarse mesh (issue 13): the 17 segment contractilities (log, 50 % prior)
+// from V_seg01..16 (V_seg17 of lv-3d holds no cavity), 18 simplex members advanced from the
+// inflated state over one frame of 1/30 beat (28.3 ms, 6 steps at dt 5 ms, the start of the
+// isovolumic contraction), then the correction. Argument: ensemble threads (members in parallel;
+// the assembly inside a member then runs on one thread). Data: the nominal beat itself, so the
+// step is timed, not its estimate. Measured 2026-11-26 14:29 UTC, idle 2-core machine, SparseLU:
+// 22.8 s on 1 thread, 11.4 s on 2 (1.27 s per member and frame; a 17-segment pass over 30 frames
+// would take about 6 min on 2 threads, plus each member's inflation).
+//   build/bench/lv3d_beat_bench --benchmark_filter=RoukfStep
+void BM_Lv3dRoukfStep(benchmark::State& st) {
+  LeftVentricle3DOptions o = with_mesh_preset({}, "coarse");
+  LeftVentricle3D lv(o);
+  const Eigen::VectorXd theta = lv.parameters().nominal();
+  const sigmaheart::model::State start = lv.initial_state(theta);
+  const double frame = start.time + 0.85 / 30.0;
+  sigmaheart::model::State s = start;
+  if (!lv.advance(s, theta, frame).ok()) {
+    st.SkipWithError("the nominal run failed");
+    return;
+  }
+  const Eigen::VectorXd z = lv.sample(s, theta);
+  const auto channels = lv.channels();
+  sigmaheart::estimation::RoukfData data;
+  data.times = Eigen::VectorXd::Constant(1, frame);
+  data.values.resize(1, 16);
+  for (int k = 1; k <= 16; ++k) {
+    const std::string name = std::string("V_seg") + (k < 10 ? "0" : "") + std::to_string(k);
+    data.channels.push_back(name);
+    for (size_t c = 0; c < channels.size(); ++c) {
+      if (channels[c].name == name) data.values(0, k - 1) = z(static_cast<Eigen::Index>(c));
+    }
+  }
+  sigmaheart::estimation::Prior prior;
+  for (int k = 1; k <= 17; ++k) {
+    const auto& q = lv.parameters()[*lv.parameters().index(std::string("sigma0_") + (k < 10 ? "0" : "") + std::to_string(k))];
+    prior.parameters.push_back(sigmaheart::estimation::PriorParameter::gaussian(
+        q.name, q.unit, q.nominal, 0.5, sigmaheart::estimation::SpreadKind::kEta,
+        sigmaheart::estimation::Transform{sigmaheart::estimation::TransformKind::kLog, q.nominal}, 0.0));
+  }
+  sigmaheart::estimation::RoukfOptions f;
+  f.R = Eigen::MatrixXd::Identity(16, 16) * std::pow(0.2e-6, 2);  // (0.2 mL)^2
+  f.initial_state = start;
+  f.ensemble.backend = sigmaheart::estimation::Backend::kThreads;
+  f.ensemble.threads = static_cast<int>(st.range(0));
+  omp_set_num_threads(1);
+  sigmaheart::estimation::RoukfSummary r;
+  for (auto _ : st) {
+    r = sigmaheart::estimation::run_roukf(lv, prior, data, f);
+    if (!r.ok()) {
+      st.SkipWithError(r.message.c_str());
+      return;
+    }
+  }
+  st.counters["members"] = r.members;
+  st.counters["tets"] = lv.mesh().n_tets();
+}
+BENCHMARK(BM_Lv3dRoukfStep)->Arg(1)->Arg(2)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 
 }  // namespace
 
