@@ -5,7 +5,8 @@
 // BoomerAMG). Counters: tetrahedra, unknowns of the
 // mechanics (u, p), Newton iterations and step cuts of the beat, EF of the beat [%].
 //   build/bench/lv3d_beat_bench --benchmark_counters_tabular=true
-// The target of issue 13: a beat on about 10 000 tetrahedra under 60 s on one core; not met.
+// The target of issue 13: a beat on about 10 000 tetrahedra under 60 s on one core; not met (see
+// BM_Lv3dBeatBySize below: about 1400 s extrapolated).
 // Measured on the shared 2-core machine (load average 4-10 from other builds, so wall times are
 // upper bounds; SparseLU, quadrature degree 2):
 //   coarse (396 tets, 2639 unknowns), one beat at dt 5 ms: 1 thread 26.1 s wall / 24.7 s CPU,
@@ -23,6 +24,11 @@
 // 7.11 s; medium 1 thread UMFPACK 37.9 s, AMG 147 s (growth exponents 1.29 and 1.47 in the
 // unknowns). The fine mesh was not run. docs/models.md s.4.8 discusses why AMG loses here.
 //   build/bench/lv3d_beat_bench --benchmark_filter='TenSteps/(0/[12]/[12]|1/1/[12])/'
+// A whole beat against mesh size with UMFPACK (BM_Lv3dBeatBySize, idle machine, 2026-11-26):
+// 396 / 918 / 1656 / 3312 tets (2639 / 6005 / 10739 / 17802 unknowns): 20.1 / 57.3 / 111 / 283 s
+// on 1 thread, 19.1 / 54.1 / 105 / 273 s on 2; time ~ unknowns^1.39; fine extrapolated ~1400 s.
+// SparseLU: 23.8 s and 212 s for the first two (exponent 2.7). docs/models.md s.4.8.
+//   build/bench/lv3d_beat_bench --benchmark_filter='BySize/.*/1/iterations'
 #include "estimation/roukf/roukf.h"
 #include "model/fem/electromechanics.h"
 #include "model/fem/register.h"
@@ -40,17 +46,15 @@ using namespace sigmaheart::model::fem;
 // Third argument: the linear solver (0 SparseLU, the default; 1 UMFPACK; 2 GMRES + BoomerAMG).
 const LinearSolver kSolvers[] = {LinearSolver::kSparseLU, LinearSolver::kUmfPack, LinearSolver::kAmg};
 
-void BM_Lv3dBeat(benchmark::State& st) {
-  const char* presets[] = {"coarse", "medium", "fine"};
-  LeftVentricle3DOptions o = with_mesh_preset({}, presets[st.range(0)]);
-  o.linear_solver = kSolvers[st.range(2)];
+// One iteration: the inflation and one beat of `o` on `threads` OpenMP threads.
+void beat(benchmark::State& st, LeftVentricle3DOptions o, int threads) {
   if (!linear_solver_available(o.linear_solver)) {
     st.SkipWithError("linear solver not built in");
     return;
   }
   o.max_beats = 1;
   o.periodic_tolerance = 1.0;
-  omp_set_num_threads(static_cast<int>(st.range(1)));
+  omp_set_num_threads(threads);
   LeftVentricle3D lv(o);
   const Eigen::VectorXd theta = lv.parameters().nominal();
   RunResult r;
@@ -69,6 +73,25 @@ void BM_Lv3dBeat(benchmark::State& st) {
     const Eigen::VectorXd V = r.trajectory.channel("V_lv");
     st.counters["EF_percent"] = 100.0 * (1.0 - V.minCoeff() / V.maxCoeff());
   }
+}
+
+void BM_Lv3dBeat(benchmark::State& st) {
+  const char* presets[] = {"coarse", "medium", "fine"};
+  LeftVentricle3DOptions o = with_mesh_preset({}, presets[st.range(0)]);
+  o.linear_solver = kSolvers[st.range(2)];
+  beat(st, o, static_cast<int>(st.range(1)));
+}
+
+// A beat against mesh size up to the medium preset (n_longitudinal a multiple of 3,
+// n_circumferential of 6 for the AHA segments). Arguments: (n_transmural, n_longitudinal,
+// n_circumferential, threads, solver as above).
+void BM_Lv3dBeatBySize(benchmark::State& st) {
+  LeftVentricle3DOptions o;
+  o.n_transmural = static_cast<int>(st.range(0));
+  o.n_longitudinal = static_cast<int>(st.range(1));
+  o.n_circumferential = static_cast<int>(st.range(2));
+  o.linear_solver = kSolvers[st.range(4)];
+  beat(st, o, static_cast<int>(st.range(3)));
 }
 // The passive inflation plus the first 10 time steps of the beat (isovolumic contraction, the
 // hardest Newton solves), for sizes whose full beat takes too long to repeat: a beat is ~170 steps
@@ -103,6 +126,14 @@ BENCHMARK(BM_Lv3dInflationAndTenSteps)
 
 BENCHMARK(BM_Lv3dBeat)
     ->ArgsProduct({{0, 1, 2}, {1, 2}, {0, 1, 2}})
+    ->Unit(benchmark::kSecond)
+    ->Iterations(1)
+    ->UseRealTime();
+
+BENCHMARK(BM_Lv3dBeatBySize)
+    ->Args({1, 6, 12, 1, 1})->Args({1, 9, 18, 1, 1})->Args({1, 12, 24, 1, 1})->Args({2, 12, 24, 1, 1})
+    ->Args({1, 6, 12, 2, 1})->Args({1, 9, 18, 2, 1})->Args({1, 12, 24, 2, 1})->Args({2, 12, 24, 2, 1})
+    ->Args({1, 6, 12, 1, 0})->Args({1, 9, 18, 1, 0})
     ->Unit(benchmark::kSecond)
     ->Iterations(1)
     ->UseRealTime();
