@@ -396,43 +396,6 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const Prior& 
 
   const int frames = static_cast<int>(data.times.size());
   int step_index = 0;
-  // Fills summary.map_* from one run at the estimate theta(eta) over the frames; returns a message
-  // when that run fails.
-  auto whole_data_statistic = [&]() -> std::string {
-    const Eigen::VectorXd eta = x.tail(p);
-    const Eigen::VectorXd theta = theta_of(eta);
-    std::unique_ptr<model::SteppableSimulator> sim = SteppableForwardModel::clone_steppable(simulator);
-    model::State st = init;
-    if (!options.initial_state && options.initial_state_per_member) st = sim->initial_state(theta);
-    const Eigen::VectorXd dev = prior.sqrt_covariance_eta().triangularView<Eigen::Lower>().solve(eta - eta0);
-    double sum = dev.squaredNorm();
-    int dof = 0, used = 0;
-    for (int k = 0; k < frames; ++k) {
-      const model::Status status = sim->advance(st, theta, data.times(k));
-      if (!status.ok()) return "the run at the estimate failed: " + status.message;
-      const Eigen::VectorXd z = sim->sample(st, theta);
-      std::vector<int> present;
-      for (int c = 0; c < m_all; ++c) {
-        if (std::isfinite(data.values(k, c))) present.push_back(c);
-      }
-      if (present.empty()) continue;
-      const int m = static_cast<int>(present.size());
-      Eigen::VectorXd res(m);
-      Eigen::MatrixXd Rk(m, m);
-      for (int a = 0; a < m; ++a) {
-        res(a) = data.values(k, present[a]) - z(observed_channels[static_cast<size_t>(present[a])]);
-        for (int b = 0; b < m; ++b) Rk(a, b) = options.R(present[a], present[b]);
-      }
-      sum += res.dot(Eigen::LLT<Eigen::MatrixXd>(Rk).solve(res));
-      dof += m;
-      ++used;
-    }
-    if (!std::isfinite(sum)) return "the misfit at the estimate is not finite";
-    summary.map_statistic = sum;
-    summary.map_dof = dof;
-    summary.map_frames = used;
-    return {};
-  };
   // Gauss-Newton on the whole-data MAP objective after the split passes (RoukfOptions::
   // map_iterations; docs/estimation.md s.4.7). With whitened residuals w(eta) = R_k^-1/2 (y_k -
   // h_k(eta)) stacked over the present entries, W = R_k^-1/2 dh/deta (central differences) and
@@ -471,8 +434,6 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const Prior& 
   // observations at the present entries, then the final model state.
   auto whole_data_runs = [&](const Eigen::MatrixXd& etas) {
     const int width = n_obs + ny;
-    summary.map_runs += static_cast<int>(etas.cols());
-    summary.member_runs += static_cast<int>(etas.cols());
     return ensemble.map_rows(
         static_cast<int>(etas.cols()), width,
         [&](int i, int worker, Eigen::Ref<Eigen::VectorXd> row) -> model::Status {
@@ -498,6 +459,24 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const Prior& 
   };
   const Eigen::MatrixXd S0 = prior.sqrt_covariance_eta();
   const Eigen::MatrixXd P0inv = Eigen::LLT<Eigen::MatrixXd>(prior.covariance_eta()).solve(Eigen::MatrixXd::Identity(p, p));
+  // Phi(eta) = |w|^2 + |b|^2 from the observations h(eta) at the present entries.
+  auto objective = [&](const Eigen::VectorXd& eta, const Eigen::VectorXd& h) {
+    return whitened(y_obs - h).squaredNorm() +
+           S0.triangularView<Eigen::Lower>().solve(eta - eta0).squaredNorm();
+  };
+  // Fills summary.map_* from one whole-data run at the estimate theta(eta) (not counted in
+  // member_runs); returns a message when that run fails.
+  auto whole_data_statistic = [&]() -> std::string {
+    const Eigen::VectorXd eta = x.tail(p);
+    const EnsembleResult res = whole_data_runs(eta);
+    if (!res.status[0].ok()) return "the run at the estimate failed: " + res.status[0].message;
+    const double phi = objective(eta, res.Z.row(0).head(n_obs).transpose());
+    if (!std::isfinite(phi)) return "the misfit at the estimate is not finite";
+    summary.map_statistic = phi;
+    summary.map_dof = n_obs;
+    summary.map_frames = static_cast<int>(whiten.size());
+    return {};
+  };
   auto refine_map = [&]() {
     summary.eta_filter = x.tail(p);
     summary.eta_covariance_filter = summary.eta_covariance;
@@ -521,6 +500,8 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const Prior& 
         etas(j, 2 + 2 * j) -= h(j);
       }
       const EnsembleResult res = whole_data_runs(etas);
+      summary.map_runs += 2 * p + 1;
+      summary.member_runs += 2 * p + 1;
       for (int i = 0; i < 2 * p + 1; ++i) {
         if (!res.status[static_cast<size_t>(i)].ok()) {
           return "a whole-data member failed (" +
@@ -533,10 +514,9 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const Prior& 
       Eigen::MatrixXd H(n_obs, p);  // d h / d eta
       for (int j = 0; j < p; ++j) H.col(j) = (obs.col(1 + 2 * j) - obs.col(2 + 2 * j)) / (2.0 * h(j));
       const Eigen::MatrixXd W = whitened(H);  // = -dw/deta
-      const Eigen::VectorXd b = S0.triangularView<Eigen::Lower>().solve(eta - eta0);
       out.eta = eta;
       out.state = res.Z.row(0).tail(ny).transpose();
-      out.phi = w.squaredNorm() + b.squaredNorm();
+      out.phi = objective(eta, obs.col(0));
       out.A = W.transpose() * W + P0inv;
       out.gradient = W.transpose() * w - P0inv * (eta - eta0);
       if (!std::isfinite(out.phi) || !out.A.allFinite()) return "the misfit or its Jacobian is not finite";

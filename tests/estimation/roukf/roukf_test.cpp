@@ -452,15 +452,26 @@ TEST(Roukf, MapRefinementKeepsTheKalmanPosteriorOnALinearModel) {
 
 // 2 x the negative log posterior of the whole data in eta, Phi(eta) = sum_k r_k^T R^-1 r_k +
 // (eta - eta0)^T P0^-1 (eta - eta0), from plain runs of the simulator (not the filter's code).
-double map_objective(LinearSimulator sim, const Prior& prior, const RoukfData& data,
-                     const MatrixXd& R, const VectorXd& eta) {
+// The observations of every frame, stacked (z1, z2 of frame 0, then frame 1, ...), from a plain
+// run of the simulator at theta = T(eta).
+VectorXd observations(LinearSimulator sim, const Prior& prior, const RoukfData& data, const VectorXd& eta) {
   VectorXd theta(2);
   for (int j = 0; j < 2; ++j) theta(j) = prior[j].to_theta(eta(j));
   model::State st = sim.initial_state(theta);
-  double phi = 0.0;
+  VectorXd z(2 * data.times.size());
   for (int k = 0; k < data.times.size(); ++k) {
     EXPECT_TRUE(sim.advance(st, theta, data.times(k)).ok());
-    const VectorXd r = data.values.row(k).transpose() - sim.sample(st, theta);
+    z.segment(2 * k, 2) = sim.sample(st, theta);
+  }
+  return z;
+}
+
+double map_objective(const LinearSimulator& sim, const Prior& prior, const RoukfData& data,
+                     const MatrixXd& R, const VectorXd& eta) {
+  const VectorXd z = observations(sim, prior, data, eta);
+  double phi = 0.0;
+  for (int k = 0; k < data.times.size(); ++k) {
+    const VectorXd r = data.values.row(k).transpose() - z.segment(2 * k, 2);
     phi += r.dot(R.llt().solve(r));
   }
   const VectorXd b = prior.sqrt_covariance_eta().triangularView<Eigen::Lower>().solve(eta - prior.mean_eta());
@@ -508,20 +519,9 @@ TEST(Roukf, MapRefinementLandsOnTheMapPointOfANonlinearModel) {
 
   // The Laplace covariance of the Gauss-Newton method at the estimate.
   MatrixXd J(2 * data.times.size(), 2);
-  auto observations = [&](const VectorXd& eta) {
-    LinearSimulator copy = sim;
-    const Eigen::Vector2d theta(prior[0].to_theta(eta(0)), prior[1].to_theta(eta(1)));
-    model::State st = copy.initial_state(theta);
-    VectorXd z(2 * data.times.size());
-    for (int k = 0; k < data.times.size(); ++k) {
-      EXPECT_TRUE(copy.advance(st, theta, data.times(k)).ok());
-      z.segment(2 * k, 2) = copy.sample(st, theta);
-    }
-    return z;
-  };
   for (int j = 0; j < 2; ++j) {
     const VectorXd ej = VectorXd::Unit(2, j) * 1e-6;
-    J.col(j) = (observations(s.eta + ej) - observations(s.eta - ej)) / 2e-6;
+    J.col(j) = (observations(sim, prior, data, s.eta + ej) - observations(sim, prior, data, s.eta - ej)) / 2e-6;
   }
   MatrixXd Rinv = MatrixXd::Zero(J.rows(), J.rows());
   for (int k = 0; k < data.times.size(); ++k) Rinv.block(2 * k, 2 * k, 2, 2) = o.R.inverse();
