@@ -91,16 +91,21 @@ SimulatorSection parse_simulator_section(const ConfigNode& node,
   s.model = model_node.as_choice(models.names());
   const model::ModelSetup* setup = models.find(s.model);
 
-  // In the order a config is usually written: numerics, then parameters.
-  s.build = setup->configure(ConfigOptionReader(node["numerics"]));
+  const model::Preset* preset = nullptr;
+  if (node.has("preset")) {
+    const ConfigNode preset_node = node["preset"];
+    if (setup->presets.empty()) preset_node.fail("model " + s.model + " has no presets");
+    preset = setup->find_preset(preset_node.as_choice(setup->preset_names()));
+  }
+
+  // In the order a config is usually written: numerics (over the preset's), then parameters.
+  const ConfigOptionReader numerics(node["numerics"]);
+  s.build = setup->configure(*model::with_defaults(numerics, preset ? preset->numerics : model::Preset{}.numerics));
   s.parameters = s.build.parameters();
   s.sources.assign(static_cast<size_t>(s.parameters.size()), ValueSource::kDefault);
 
   // A preset's values over the defaults, then the config's own parameters over both.
-  if (node.has("preset")) {
-    const ConfigNode preset_node = node["preset"];
-    if (setup->presets.empty()) preset_node.fail("model " + s.model + " has no presets");
-    const model::Preset* preset = setup->find_preset(preset_node.as_choice(setup->preset_names()));
+  if (preset) {
     for (const auto& [name, value] : preset->values) {
       const int i = s.parameters.index_or_throw(name);
       s.parameters.set_nominal(name, value);

@@ -2,6 +2,9 @@
 
 #include "model/lumped/register.h"
 
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
 #include <stdexcept>
 
 namespace sigmaheart::model {
@@ -56,6 +59,116 @@ std::unique_ptr<OptionReader> OptionReader::item(const std::string& key, int i) 
 
 void NoOptions::fail(const std::string& key, const std::string& message) const {
   throw std::invalid_argument(key.empty() ? message : key + ": " + message);
+}
+
+namespace {
+
+// with_defaults(): `base` (borrowed, or owned for sub-sections) over `defaults`.
+class DefaultedOptions final : public OptionReader {
+ public:
+  DefaultedOptions(const OptionReader& base, std::unique_ptr<OptionReader> owned,
+                   std::vector<std::pair<std::string, std::string>> defaults)
+      : base_(base), owned_(std::move(owned)), defaults_(std::move(defaults)) {}
+
+  bool defined() const override { return base_.defined() || !defaults_.empty(); }
+  bool has(const std::string& key) const override {
+    if (base_.has(key)) return true;
+    for (const auto& [k, v] : defaults_)
+      if (k == key || k.rfind(key + ".", 0) == 0) return true;
+    return false;
+  }
+  bool is_map() const override { return base_.is_map() || !defaults_.empty(); }
+  std::string path() const override { return base_.path(); }
+  void check_keys(const std::vector<std::string>& allowed) const override {
+    base_.check_keys(allowed);
+    for (const auto& [k, v] : defaults_) {
+      const std::string head = k.substr(0, k.find('.'));
+      if (std::find(allowed.begin(), allowed.end(), head) == allowed.end())
+        throw std::logic_error("preset numerics: '" + k + "' is not a key of " + base_.path());
+    }
+  }
+  double quantity(const std::string& key, const std::string& unit, double fallback) const override {
+    if (base_.has(key)) return base_.quantity(key, unit, fallback);
+    const std::string* d = find(key);
+    return d ? to_number(key, *d) : fallback;
+  }
+  double number(const std::string& key, double fallback) const override {
+    if (base_.has(key)) return base_.number(key, fallback);
+    const std::string* d = find(key);
+    return d ? to_number(key, *d) : fallback;
+  }
+  int integer(const std::string& key, int fallback) const override {
+    if (base_.has(key)) return base_.integer(key, fallback);
+    const std::string* d = find(key);
+    if (!d) return fallback;
+    const double v = to_number(key, *d);
+    if (v != std::floor(v)) throw std::logic_error("preset numerics: " + key + " = '" + *d + "' is not an integer");
+    return static_cast<int>(v);
+  }
+  std::string choice(const std::string& key, const std::vector<std::string>& allowed) const override {
+    if (base_.has(key)) return base_.choice(key, allowed);
+    const std::string* d = find(key);
+    if (!d) return base_.choice(key, allowed);  // reports the missing key
+    if (std::find(allowed.begin(), allowed.end(), *d) == allowed.end())
+      throw std::logic_error("preset numerics: " + key + " = '" + *d + "' is not one of its choices");
+    return *d;
+  }
+  std::vector<double> quantities(const std::string& key, const std::string& unit) const override {
+    return base_.quantities(key, unit);
+  }
+  std::unique_ptr<OptionReader> child(const std::string& key) const override {
+    std::vector<std::pair<std::string, std::string>> sub;
+    for (const auto& [k, v] : defaults_)
+      if (k.rfind(key + ".", 0) == 0) sub.emplace_back(k.substr(key.size() + 1), v);
+    std::unique_ptr<OptionReader> base_child = base_.child(key);
+    const OptionReader& ref = *base_child;
+    return std::make_unique<DefaultedOptions>(ref, std::move(base_child), std::move(sub));
+  }
+  std::string text(const std::string& key, const std::string& fallback) const override {
+    if (base_.has(key)) return base_.text(key, fallback);
+    const std::string* d = find(key);
+    return d ? *d : fallback;
+  }
+  bool boolean(const std::string& key, bool fallback) const override {
+    if (base_.has(key)) return base_.boolean(key, fallback);
+    const std::string* d = find(key);
+    if (!d) return fallback;
+    if (*d != "true" && *d != "false")
+      throw std::logic_error("preset numerics: " + key + " = '" + *d + "' is not true or false");
+    return *d == "true";
+  }
+  int list_size(const std::string& key) const override { return base_.list_size(key); }
+  std::unique_ptr<OptionReader> item(const std::string& key, int i) const override { return base_.item(key, i); }
+  std::string base_directory() const override { return base_.base_directory(); }
+  [[noreturn]] void fail(const std::string& key, const std::string& message) const override {
+    base_.fail(base_.has(key) ? key : std::string(), message);
+    throw std::logic_error("OptionReader::fail returned");  // fail() never returns
+  }
+
+ private:
+  const std::string* find(const std::string& key) const {
+    for (const auto& [k, v] : defaults_)
+      if (k == key) return &v;
+    return nullptr;
+  }
+  static double to_number(const std::string& key, const std::string& text) {
+    char* end = nullptr;
+    const double v = std::strtod(text.c_str(), &end);
+    if (end == text.c_str() || *end != '\0' || !std::isfinite(v))
+      throw std::logic_error("preset numerics: " + key + " = '" + text + "' is not a number in SI units");
+    return v;
+  }
+
+  const OptionReader& base_;
+  std::unique_ptr<OptionReader> owned_;  // base_ when it is a sub-section made by child()
+  std::vector<std::pair<std::string, std::string>> defaults_;
+};
+
+}  // namespace
+
+std::unique_ptr<OptionReader> with_defaults(const OptionReader& section,
+                                            std::vector<std::pair<std::string, std::string>> defaults) {
+  return std::make_unique<DefaultedOptions>(section, nullptr, std::move(defaults));
 }
 
 std::unique_ptr<Simulator> ModelBuild::make(const ParameterSpace& parameters) const {

@@ -157,11 +157,25 @@ class ModelBuild {
 // One simulator family as a config names it.
 // A named set of parameter values (SI, by parameter name) applied over a build's defaults, before
 // the config's own `parameters:` (`simulator: {model: lumped-sphere, preset: heart-failure}`).
+// A preset may also need numerics (lv-3d's `lbbb-heart-failure`: the LBBB activation and a dilated
+// geometry): `numerics` holds their values as text in SI units, keyed by their dotted path inside
+// `numerics:` ("activation", "geometry.r_short_endo"); the config's own numerics override them key
+// by key (with_defaults below).
 struct Preset {
   std::string name;  // e.g. "heart-failure"
   std::string doc;   // one line: what it represents and where its values come from
   std::vector<std::pair<std::string, double>> values;
+  std::vector<std::pair<std::string, std::string>> numerics;
 };
+
+// `section` read over `defaults` (dotted keys, values as text in SI units, as Preset::numerics): a
+// key present in `section` gives its value; an absent key with a default gives the default; other
+// keys give the fallback. Sub-sections (child) carry the defaults under their prefix. Errors are
+// reported by `section` (a default that the model refuses is reported at the section). `section`
+// must outlive the reader. std::logic_error when a default is not a number where one is read or
+// not one of a choice's values (a preset defined wrongly, not bad input).
+std::unique_ptr<OptionReader> with_defaults(const OptionReader& section,
+                                            std::vector<std::pair<std::string, std::string>> defaults);
 
 struct ModelSetup {
   std::string name;  // as written in configs, e.g. "lumped-sphere"

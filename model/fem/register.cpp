@@ -93,17 +93,46 @@ LeftVentricle3DOptions read_lv3d_options(const OptionReader& node) {
 // 90 kPa (default 80) and a faster contraction rate k_ATP 17 1/s (default 8), tuned on the coarse
 // mesh with `dt` 20 ms and the healthy eikonal activation so that the periodic beat lies in the
 // adult ranges of docs/models.md s.7 (EDV 147.8 mL, ESV 52.8 mL, EF 64.3 %, peak 130.4 mmHg,
-// dP/dt max 1298 mmHg/s, EDP 6.9 mmHg, aortic 127.1/71.9 mmHg; tests/model/fem/electromechanics_test.cpp).
+// dP/dt max 1298 mmHg/s, EDP 6.9 mmHg, aortic 127.1/71.9 mmHg; tests/model/fem/electromechanics_slow_test.cpp). `lbbb-heart-failure`: below.
 namespace {
+
+std::string segment_name(int k) { return std::string("sigma0_") + (k < 10 ? "0" : "") + std::to_string(k); }
 
 std::vector<Preset> lv3d_presets() {
   Preset healthy{"healthy",
                  "healthy adult beat on the coarse mesh with healthy activation: sigma0_XX 90 kPa, k_ATP 17 1/s "
                  "(docs/models.md s.4.8)",
-                 {{"k_ATP", 17.0}}};
-  for (int k = 1; k <= kAhaSegments; ++k)
-    healthy.values.emplace_back(std::string("sigma0_") + (k < 10 ? "0" : "") + std::to_string(k), 9.0e4);
-  return {healthy};
+                 {{"k_ATP", 17.0}},
+                 {}};
+  for (int k = 1; k <= kAhaSegments; ++k) healthy.values.emplace_back(segment_name(k), 9.0e4);
+
+  // The dyssynchronous failing heart (the usual candidate for resynchronisation therapy): left
+  // bundle branch block activation and a dilated, thinner ventricle, with the remodelling of the
+  // lumped `heart-failure` preset (docs/models.md s.7): stiffer tissue (c1, c2, c_exp x1.5, x1.5,
+  // x2.5: fibrosis), 6 % lower contractility and a slower contraction rate than `healthy`, raised
+  // filling pressure with a weak atrial kick, +10 % peripheral resistance. Geometry: endocardium
+  // 28/48 mm (short/long radius), epicardium 36/56 mm (8 mm wall against the healthy 10 mm), the
+  // base plane scaled with the long axis (5 mm x 48/17). Tuned on the coarse mesh at `dt` 20 ms
+  // (docs/models.md s.4.8, "Presets"; tests/model/fem/electromechanics_slow_test.cpp).
+  Preset failing{"lbbb-heart-failure",
+                 "dilated failing ventricle with left bundle branch block (HFrEF, EF ~25 %): activation lbbb, "
+                 "endocardium 28/48 mm, epicardium 36/56 mm, stiffer and weaker tissue, filling pressure 18 mmHg "
+                 "(docs/models.md s.4.8)",
+                 {{"c1", 900.0},
+                  {"c2", 1350.0},
+                  {"c_exp", 1500.0},
+                  {"k_ATP", 15.0},
+                  {"P_at0", 2400.0},      // 18 mmHg
+                  {"P_at_kick", 266.6},   // 2 mmHg
+                  {"R_d", 1.1e8}},
+                 {{"activation", "lbbb"},
+                  {"geometry.r_short_endo", "0.028"},
+                  {"geometry.r_long_endo", "0.048"},
+                  {"geometry.r_short_epi", "0.036"},
+                  {"geometry.r_long_epi", "0.056"},
+                  {"geometry.z_base", "0.014118"}}};
+  for (int k = 1; k <= kAhaSegments; ++k) failing.values.emplace_back(segment_name(k), 8.5e4);
+  return {healthy, failing};
 }
 
 }  // namespace

@@ -4,6 +4,9 @@
 #include "app/blackbox/register.h"
 
 #include "model/lumped/sphere.h"
+#ifdef SIGMAHEART_HAVE_FEM
+#include "model/fem/electromechanics.h"
+#endif
 #include "model/units.h"
 
 #include "tests/app/test_support.h"
@@ -154,6 +157,46 @@ TEST(Config, Lv3dNumericsErrorsPointAtTheField) {
       "r_short_epi: 30 mm, r_long_epi: 30 mm, z_base: 22.5 mm}}";
   EXPECT_EQ(error_of([&] { parse_config(with_line(lv, 4, shell_numerics), "x.yaml", {}, blackbox::cli_models()); }),
             "");
+}
+
+// A preset's numerics (lv-3d `lbbb-heart-failure`: LBBB activation, dilated geometry) reach the
+// model under the config's own numerics, which win key by key; its parameters are marked preset.
+TEST(Config, APresetsNumericsComeUnderTheConfigsOwn) {
+  const std::string lv =
+      "name: lv\n"
+      "simulator:\n"
+      "  model: lv-3d\n"
+      "  preset: lbbb-heart-failure\n"
+      "  numerics: {mesh: coarse}\n";
+  const auto options_of = [](const Config& c) {
+    const auto sim = c.simulator.build.make(c.simulator.parameters);
+    return dynamic_cast<const model::fem::LeftVentricle3D&>(*sim).options();
+  };
+  const Config c = parse_config(lv, "x.yaml", {}, blackbox::cli_models());
+  const model::fem::LeftVentricle3DOptions o = options_of(c);
+  EXPECT_EQ(o.activation, model::fem::ActivationSource::kLbbb);
+  EXPECT_EQ(o.n_circumferential, 12);
+  EXPECT_DOUBLE_EQ(o.geometry.r_short_endo, 0.028);
+  EXPECT_DOUBLE_EQ(o.geometry.r_long_epi, 0.056);
+  EXPECT_DOUBLE_EQ(c.simulator.parameters[c.simulator.parameters.index_or_throw("P_at0")].nominal, 2400.0);
+  const Config own = parse_config(
+      with_line(lv, 5, "  numerics: {mesh: coarse, activation: healthy, geometry: {r_short_endo: 27 mm}}"), "x.yaml",
+      {}, blackbox::cli_models());
+  const model::fem::LeftVentricle3DOptions o2 = options_of(own);
+  EXPECT_EQ(o2.activation, model::fem::ActivationSource::kHealthy);
+  EXPECT_DOUBLE_EQ(o2.geometry.r_short_endo, 0.027);  // the config's key
+  EXPECT_DOUBLE_EQ(o2.geometry.r_short_epi, 0.036);   // the preset's, beside it
+  // A bad value of the config's own still points at its place.
+  EXPECT_EQ(error_of([&] {
+              parse_config(with_line(lv, 5, "  numerics: {geometry: {r_short_epi: 20 mm}}"), "x.yaml", {},
+                           blackbox::cli_models());
+            }),
+            "x.yaml:5:24: simulator.numerics: geometry: epicardial radii must exceed the endocardial ones");
+  // The shipped config names the preset and the coarse mesh.
+  const Config shipped = load_config(std::string(SIGMAHEART_SOURCE_DIR) + "/configs/lv3d-lbbb-heart-failure.yaml",
+                                     {}, blackbox::cli_models());
+  EXPECT_EQ(options_of(shipped).activation, model::fem::ActivationSource::kLbbb);
+  EXPECT_EQ(shipped.simulator.parameters.nominal(), c.simulator.parameters.nominal());
 }
 #endif
 

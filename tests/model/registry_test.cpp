@@ -108,6 +108,33 @@ TEST(ModelRegistry, BadNumericsAreReportedThroughTheReader) {
   EXPECT_THROW(sphere.configure(MapOptions(std::map<std::string, std::string>{{"dtt", "1e-3"}})), std::invalid_argument);
 }
 
+// with_defaults: the section's keys win, absent keys take the defaults (also inside sub-sections),
+// other keys their fallback; a default that is not a number, or not one of a choice's values, is a
+// preset defined wrongly (std::logic_error), and an unknown default key is caught by check_keys.
+TEST(ModelRegistry, DefaultsFillTheKeysASectionLeavesOut) {
+  const MapOptions section(std::map<std::string, std::string>{{"dt", "0.002"}});
+  const auto r = with_defaults(section, {{"dt", "0.01"}, {"activation", "lbbb"}, {"max_beats", "4"},
+                                         {"geometry.r_short_endo", "0.028"}});
+  EXPECT_TRUE(r->defined());
+  EXPECT_TRUE(r->has("activation"));
+  EXPECT_TRUE(r->has("geometry"));
+  EXPECT_FALSE(r->has("mesh"));
+  EXPECT_DOUBLE_EQ(r->quantity("dt", "s", 1.0), 0.002);  // the section's
+  EXPECT_EQ(r->choice("activation", {"healthy", "lbbb"}), "lbbb");
+  EXPECT_EQ(r->integer("max_beats", 20), 4);
+  EXPECT_EQ(r->integer("min_beats", 1), 1);
+  const auto g = r->child("geometry");
+  EXPECT_TRUE(g->is_map());
+  EXPECT_DOUBLE_EQ(g->quantity("r_short_endo", "m", 0.025), 0.028);
+  EXPECT_DOUBLE_EQ(g->quantity("r_long_endo", "m", 0.045), 0.045);
+  EXPECT_THROW(r->choice("activation", {"healthy", "synchronous"}), std::logic_error);
+  EXPECT_THROW(r->check_keys({"dt", "activation", "max_beats"}), std::logic_error);  // geometry not allowed
+  EXPECT_NO_THROW(r->check_keys({"dt", "activation", "max_beats", "geometry"}));
+  EXPECT_THROW(with_defaults(section, {{"max_beats", "four"}})->integer("max_beats", 20), std::logic_error);
+  // The section's errors stay the section's.
+  EXPECT_THROW(with_defaults(section, {})->check_keys({"mesh"}), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace sigmaheart::model
 
