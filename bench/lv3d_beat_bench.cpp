@@ -29,6 +29,11 @@
 // on 1 thread, 19.1 / 54.1 / 105 / 273 s on 2; time ~ unknowns^1.39; fine extrapolated ~1400 s.
 // SparseLU: 23.8 s and 212 s for the first two (exponent 2.7). docs/models.md s.4.8.
 //   build/bench/lv3d_beat_bench --benchmark_filter='BySize/.*/1/iterations'
+// The iterative solver as an inexact Newton method (BM_Lv3dBeatBySizeAmg, linear_tolerance
+// 10^-k; 2026-11-26, second core busy): coarse 111 / 73.9 / 55.9 / 42.2 s CPU at 1e-10 / 1e-6 /
+// 1e-4 / 1e-2 (848 / 848 / 870 / 1002 Newton iterations, the same EF); at 1e-2, 918 tets 133 s and
+// 1656 tets 371 s: time ~ unknowns^1.55, still 2-3x UMFPACK. docs/models.md s.4.8.
+//   build/bench/lv3d_beat_bench --benchmark_filter='BySizeAmg'
 #include "estimation/roukf/roukf.h"
 #include "model/fem/electromechanics.h"
 #include "model/fem/register.h"
@@ -36,6 +41,8 @@
 #include <string>
 
 #include <benchmark/benchmark.h>
+
+#include <cmath>
 #include <omp.h>
 
 namespace {
@@ -93,6 +100,17 @@ void BM_Lv3dBeatBySize(benchmark::State& st) {
   o.linear_solver = kSolvers[st.range(4)];
   beat(st, o, static_cast<int>(st.range(3)));
 }
+// The same with the iterative solver (GMRES + BoomerAMG) as an inexact Newton method: arguments
+// (n_transmural, n_longitudinal, n_circumferential, threads, k) with linear_tolerance 10^-k.
+void BM_Lv3dBeatBySizeAmg(benchmark::State& st) {
+  LeftVentricle3DOptions o;
+  o.n_transmural = static_cast<int>(st.range(0));
+  o.n_longitudinal = static_cast<int>(st.range(1));
+  o.n_circumferential = static_cast<int>(st.range(2));
+  o.linear_solver = LinearSolver::kAmg;
+  o.linear_tolerance = std::pow(10.0, -static_cast<double>(st.range(4)));
+  beat(st, o, static_cast<int>(st.range(3)));
+}
 // The passive inflation plus the first 10 time steps of the beat (isovolumic contraction, the
 // hardest Newton solves), for sizes whose full beat takes too long to repeat: a beat is ~170 steps
 // at dt 5 ms, about half of them in the easier ejection and filling phases.
@@ -134,6 +152,13 @@ BENCHMARK(BM_Lv3dBeatBySize)
     ->Args({1, 6, 12, 1, 1})->Args({1, 9, 18, 1, 1})->Args({1, 12, 24, 1, 1})->Args({2, 12, 24, 1, 1})
     ->Args({1, 6, 12, 2, 1})->Args({1, 9, 18, 2, 1})->Args({1, 12, 24, 2, 1})->Args({2, 12, 24, 2, 1})
     ->Args({1, 6, 12, 1, 0})->Args({1, 9, 18, 1, 0})
+    ->Unit(benchmark::kSecond)
+    ->Iterations(1)
+    ->UseRealTime();
+
+BENCHMARK(BM_Lv3dBeatBySizeAmg)
+    ->ArgsProduct({{1}, {6}, {12}, {1}, {10, 6, 4, 2}})
+    ->Args({1, 9, 18, 1, 2})->Args({1, 12, 24, 1, 2})->Args({2, 12, 24, 1, 2})
     ->Unit(benchmark::kSecond)
     ->Iterations(1)
     ->UseRealTime();

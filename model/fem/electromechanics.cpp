@@ -85,6 +85,10 @@ std::string LeftVentricle3DOptions::validate() const {
   if (output_every < 1) return "output_every must be >= 1";
   if (!(newton_tolerance > 1e-14 && newton_tolerance < 1e-2)) return "newton_tolerance must lie in (1e-14, 1e-2)";
   if (newton_max_iterations < 1 || newton_max_iterations > 200) return "newton_max_iterations must be in 1..200";
+  if (!(linear_tolerance >= 1e-14 && linear_tolerance <= 0.1)) {
+    s << "linear_tolerance = " << linear_tolerance << " must lie in [1e-14, 0.1]";
+    return s.str();
+  }
   if (!(conduction_velocity > 0.01 && conduction_velocity < 100)) {
     s << "conduction_velocity = " << conduction_velocity << " m/s must lie in (0.01, 100) m/s";
     return s.str();
@@ -472,7 +476,9 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
   if (options.linear_solver == LinearSolver::kSparseLU) {
     if (!lu) lu = std::make_unique<SparseSolver>(LinearSolver::kSparseLU);
   } else {
-    fresh = std::make_unique<SparseSolver>(options.linear_solver);
+    IterativeOptions io;
+    io.relative_tolerance = options.linear_tolerance;
+    fresh = std::make_unique<SparseSolver>(options.linear_solver, io);
     fresh->set_saddle_point(static_cast<int>(nu_));
   }
   SparseSolver& solver = fresh ? *fresh : *lu;

@@ -119,6 +119,12 @@ struct LeftVentricle3DOptions {
   // SparseLU by default: the same bits in every thread (electromechanics.cpp, step); UMFPACK
   // (kAuto, kUmfPack) rounds with the alignment of its workspace.
   LinearSolver linear_solver = LinearSolver::kSparseLU;
+  // Relative tolerance of the iterative solver's GMRES (linear_solver kAmg; ignored by the direct
+  // solvers): an inexact Newton method (Dembo, Eisenstat & Steihaug 1982) when it is above the
+  // rounding level. Newton's own test (newton_tolerance on the scaled residual rows) still decides
+  // convergence, so a looser linear tolerance costs iterations, not accuracy
+  // (docs/models.md s.4.8, "Cost").
+  double linear_tolerance = 1e-10;
 
   // Empty when valid, else a message starting with the offending field's name.
   std::string validate() const;

@@ -24,7 +24,7 @@ LeftVentricle3DOptions read_lv3d_options(const OptionReader& node) {
   node.check_keys({"mesh", "quadrature_degree", "fibre_endo", "fibre_epi", "base", "dt", "max_step_cuts",
                    "inflation_steps", "min_beats", "max_beats", "periodic_tolerance", "output_every",
                    "newton_tolerance", "newton_max_iterations", "activation", "conduction_velocity",
-                   "linear_solver", "geometry", "active_stress"});
+                   "linear_solver", "linear_tolerance", "geometry", "active_stress"});
   if (node.has("geometry")) {
     // The truncated ellipsoid's radii and base plane (EllipsoidGeometry, docs/models.md s.4.1);
     // keys left out keep the human-sized values.
@@ -78,6 +78,7 @@ LeftVentricle3DOptions read_lv3d_options(const OptionReader& node) {
                                                                             : "SuiteSparse, Debian libsuitesparse-dev") +
                                      "); use sparselu");
   }
+  o.linear_tolerance = node.number("linear_tolerance", o.linear_tolerance);
   if (const std::string msg = o.validate(); !msg.empty()) {
     // Messages start with the field name; map it to its key.
     std::string field = msg.substr(0, msg.find_first_of(" ="));

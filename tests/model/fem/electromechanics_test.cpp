@@ -84,6 +84,10 @@ TEST(Lv3dRegistration, BadNumericsAreReportedAtTheirKey) {
             "quadrature_degree: simulator.numerics: quadrature_degree must be 2 or 5");
   EXPECT_EQ(error_of({{"conduction_velocity", "-1"}}),
             "conduction_velocity: simulator.numerics: conduction_velocity = -1 m/s must lie in (0.01, 100) m/s");
+  EXPECT_EQ(error_of({{"linear_tolerance", "0.5"}}),
+            "linear_tolerance: simulator.numerics: linear_tolerance = 0.5 must lie in [1e-14, 0.1]");
+  EXPECT_EQ(read_lv3d_options(MapOptions({{"linear_solver", "sparselu"}, {"linear_tolerance", "1e-2"}})).linear_tolerance,
+            1e-2);
   EXPECT_EQ(error_of({{"mesh", "medium"}, {"dt", "2e-3"}}), "");
   LeftVentricle3DOptions too_coarse;
   too_coarse.n_circumferential = 6;  // inverts curved elements at the apex
