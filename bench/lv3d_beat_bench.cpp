@@ -34,6 +34,9 @@
 // 1e-4 / 1e-2 (848 / 848 / 870 / 1002 Newton iterations, the same EF); at 1e-2, 918 tets 133 s and
 // 1656 tets 371 s: time ~ unknowns^1.55, still 2-3x UMFPACK. docs/models.md s.4.8.
 //   build/bench/lv3d_beat_bench --benchmark_filter='BySizeAmg'
+// Without UMFPACK's iterative refinement (model/fem/solver.cpp, UMFPACK_IRSTEP 0; second core busy):
+// 396 / 918 / 1656 / 3312 tets 17.0 / 46.4 / 104 / 276 s on 1 thread (918 tets: 70.2 s with the
+// refinement, same load); growth unknowns^1.46.
 #include "estimation/roukf/roukf.h"
 #include "model/fem/electromechanics.h"
 #include "model/fem/register.h"

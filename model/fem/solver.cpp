@@ -264,6 +264,10 @@ SparseSolver::SparseSolver(LinearSolver kind, IterativeOptions iterative)
   impl_->umf.umfpackControl()(UMFPACK_STRATEGY) = UMFPACK_STRATEGY_SYMMETRIC;
   // Nested dissection (METIS) fills much less than AMD on 3D quadratic meshes.
   impl_->umf.umfpackControl()(UMFPACK_ORDERING) = UMFPACK_ORDERING_METIS;
+  // No iterative refinement (UMFPACK's default is up to 2 steps, each a residual and another pair of
+  // triangular solves): the callers are Newton iterations whose own residual test decides, and the
+  // refinement was the largest single cost of a heartbeat (docs/models.md s.4.8, "Cost").
+  impl_->umf.umfpackControl()(UMFPACK_IRSTEP) = 0;
 #endif
 }
 
