@@ -417,6 +417,7 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
     double Pv = 0, Par = 0, Pd = 0;
     Eigen::VectorXd R;
     SparseMatrix K;
+    bool has_K = false;  // K assembled (the line search's candidates skip it until a factorisation needs it)
     Eigen::VectorXd b;  // dR_x/dP_v (pressure rows zero)
     Eigen::VectorXd gV; // dr_c/dx = dV/du / h (fixed dofs and pressure rows zero)
     double rc = 0, rar = 0, c11 = 0, c12 = 0, c21 = 0, c22 = 0;
@@ -424,9 +425,10 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
     std::vector<bcs::ActiveState> act;
   };
   const double fv = h / kVref;  // cavity and Windkessel rows scaled to volumes over the step
-  auto evaluate = [&](Eval& ev) -> bool {
+  auto evaluate = [&](Eval& ev, bool with_tangent) -> bool {
     local_failed = false;
-    if (!mc.assemble(ev.ms, Load{ev.Pv, 0.0}, &ev.R, &ev.K, hook)) return false;
+    ev.has_K = with_tangent;
+    if (!mc.assemble(ev.ms, Load{ev.Pv, 0.0}, &ev.R, with_tangent ? &ev.K : nullptr, hook)) return false;
     if (local_failed) return false;
     ev.act = trial;
     const CavityVolumes cv = cavity_volumes(g.mesh, positions(ev.ms.u), g.labels, true);
@@ -457,7 +459,7 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
   cur.ms = xo.ms;
   cur.Pv = xo.Pv;
   cur.Par = xo.Par;
-  if (!evaluate(cur)) return -1;
+  if (!evaluate(cur, true)) return -1;
   first_evaluation = false;
   // Newton's method with the factors of the tangent kept while they still contract the residual
   // fast (a chord iteration, Kelley 2003, Solving Nonlinear Equations with Newton's Method, s.2.3):
@@ -499,6 +501,9 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
     if (iterations == options.newton_max_iterations) break;
     ++iterations;
     if (!have_factors) {
+      // The same point again, now with its tangent: the residual and the trial states come out
+      // bit for bit as before (the assembly is a pure function of the point).
+      if (!cur.has_K && !evaluate(cur, true)) return -1;
       if (!solver.factorize(cur.K)) return -1;
       have_factors = factors_fresh = true;
     }
@@ -524,7 +529,7 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
       cand.ms.p = cur.ms.p + lambda * dx.tail(np_);
       cand.Pv = cur.Pv + lambda * dP(0);
       cand.Par = cur.Par + lambda * dP(1);
-      if (!evaluate(cand)) continue;
+      if (!evaluate(cand, false)) continue;
       if (cand.merit <= (1.0 - 1e-4 * lambda) * cur.merit) {
         accepted = true;
         // Slow contraction: refactorise at the new point.
