@@ -82,7 +82,8 @@ Frame arostica_fibre_frame(const Eigen::Vector3d& X, double t);
 // Where the layer t comes from: the benchmark's Laplace solution (t = 0 endo, 1 epi; P1 on the
 // vertices, interpolated) or the generator's parametric layer coordinate.
 enum class TransmuralSource { kLaplace, kParametric };
-// Frames at the quadrature points (degree as MechanicsOptions::quadrature_degree), element-major.
+// Frames at the quadrature points (degree as MechanicsOptions::quadrature_degree), element-major,
+// evaluated exactly there (unit vectors; no interpolation of nodal fibres).
 std::vector<Frame> arostica_fibres(const Mesh& mesh, TransmuralSource source, int quadrature_degree);
 
 // A material point of the reference mesh: its element and shape-function values there, from the
@@ -109,7 +110,7 @@ struct ArosticaOptions {
   double end_time = 1.0;        // [s]
   double output_interval = 0.01;  // [s] (the teams' sampling); a multiple of time_step
   TransmuralSource transmural = TransmuralSource::kLaplace;
-  PenaltyForm penalty = PenaltyForm::kSimoTaylor;
+  PenaltyForm penalty = PenaltyForm::kMixed;
   int quadrature_degree = 5;
   LinearSolver linear_solver = LinearSolver::kAuto;
   std::string validate() const;
