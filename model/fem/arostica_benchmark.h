@@ -110,6 +110,8 @@ struct ArosticaOptions {
   double end_time = 1.0;        // [s]
   double output_interval = 0.01;  // [s] (the teams' sampling); a multiple of time_step
   TransmuralSource transmural = TransmuralSource::kLaplace;
+  // Mixed by default: displacement-only P2 with the ST91 penalty locks the radial motion
+  // (docs/models.md s.4.9).
   PenaltyForm penalty = PenaltyForm::kMixed;
   int quadrature_degree = 5;
   LinearSolver linear_solver = LinearSolver::kAuto;
