@@ -1,3 +1,6 @@
+// `sigmaheart benchmark arostica [--mesh NT,NL,NC] [--dt S] [-o CURVES.csv]`: Benchmark 1 / Step 1
+// of the cardiac elastodynamics benchmark of Arostica et al. 2025 (CMAME 435:117485); writes the
+// displacement of p0 and p1 every 0.01 s (experiments/arostica-benchmark/README.md).
 // `sigmaheart benchmark land --problem 1|2|3 [--refinement K ...] [-o OUT.csv] [--vtu DIR]`:
 // the cardiac mechanics verification benchmark of Land et al. 2015 (Proc R Soc A 471:20150641)
 // on the 3D finite-element ventricle of model/fem. Prints one table row per refinement (ours
@@ -10,6 +13,7 @@
 #ifdef SIGMAHEART_HAVE_FEM
 #include "app/io/mesh_io.h"
 #include "model/fem/cavity.h"
+#include "model/fem/arostica_benchmark.h"
 #include "model/fem/land_benchmark.h"
 #endif
 
@@ -116,6 +120,69 @@ int run_benchmark(const BenchmarkOptions& o, CommandContext& ctx) {
 }
 #endif
 
+
+struct ArosticaCliOptions {
+  std::vector<int> mesh = {2, 12, 24};  // layers, rings, sectors
+  double dt = 1e-3;
+  double end_time = 1.0;
+  std::string transmural = "laplace";
+  std::string penalty = "mixed";
+  std::filesystem::path output;
+};
+
+#ifdef SIGMAHEART_HAVE_FEM
+int run_arostica(const ArosticaCliOptions& c, CommandContext& ctx) {
+  namespace fem = model::fem;
+  fem::ArosticaOptions o;
+  if (c.mesh.size() != 3) throw InputError("--mesh", 0, 0, "expected three integers: layers,rings,sectors");
+  o.mesh.n_transmural = c.mesh[0];
+  o.mesh.n_longitudinal = c.mesh[1];
+  o.mesh.n_circumferential = c.mesh[2];
+  o.time_step = c.dt;
+  o.end_time = c.end_time;
+  if (c.transmural == "laplace") o.transmural = fem::TransmuralSource::kLaplace;
+  else if (c.transmural == "parametric") o.transmural = fem::TransmuralSource::kParametric;
+  else throw InputError("--transmural", 0, 0, "expected laplace or parametric, got '" + c.transmural + "'");
+  if (c.penalty == "st91") o.penalty = fem::PenaltyForm::kSimoTaylor;
+  else if (c.penalty == "mixed") o.penalty = fem::PenaltyForm::kMixed;
+  else throw InputError("--penalty", 0, 0, "expected st91 or mixed, got '" + c.penalty + "'");
+  if (auto m = o.validate(); !m.empty()) throw InputError("--dt", 0, 0, m);
+  ctx.out << "Arostica et al. 2025, Benchmark 1 / Step 1: mesh " << c.mesh[0] << "x" << c.mesh[1] << "x" << c.mesh[2]
+          << " (P2), dt " << c.dt << " s, fibres t from " << c.transmural << ", penalty " << c.penalty << "\n";
+  const fem::ArosticaResult r = fem::run_arostica_step1(o, [&](double t, int, int it) {
+    ctx.err << "\r  t = " << std::fixed << std::setprecision(2) << t << " s (" << it << " Newton iterations)"
+            << std::defaultfloat << std::flush;
+  });
+  ctx.err << "\n";
+  std::ostringstream csv;
+  csv << std::setprecision(9);
+  csv << "time_s,tau_Pa,pressure_Pa,p0_ux_m,p0_uy_m,p0_uz_m,p1_ux_m,p1_uy_m,p1_uz_m\n";
+  size_t kmin = 0;
+  for (size_t k = 0; k < r.time.size(); ++k) {
+    csv << r.time[k] << ',' << r.tau[k] << ',' << r.pressure[k] << ',' << r.p0[k].x() << ',' << r.p0[k].y() << ','
+        << r.p0[k].z() << ',' << r.p1[k].x() << ',' << r.p1[k].y() << ',' << r.p1[k].z() << '\n';
+    if (r.p0[k].x() < r.p0[kmin].x()) kmin = k;
+  }
+  ctx.out << "tets " << r.n_tets << ", unknowns " << r.n_unknowns << ", steps " << r.steps << ", Newton iterations "
+          << r.newton_iterations << " (max " << r.max_newton_iterations << " per step), " << std::fixed
+          << std::setprecision(1) << r.seconds << " s\n"
+          << std::defaultfloat;
+  if (!r.time.empty()) {
+    size_t k1 = 0;
+    for (size_t k = 0; k < r.time.size(); ++k)
+      if (r.p1[k].x() < r.p1[k1].x()) k1 = k;
+    ctx.out << std::fixed << std::setprecision(3) << "p0 ux min " << 1e3 * r.p0[kmin].x() << " mm at " << std::setprecision(2)
+            << r.time[kmin] << " s (teams -35.867..-34.347 mm at 0.47-0.48 s); p1 ux min " << std::setprecision(3)
+            << 1e3 * r.p1[k1].x() << " mm at " << std::setprecision(2) << r.time[k1]
+            << " s (teams -27.568..-26.138 mm)\n"
+            << std::defaultfloat;
+  }
+  if (!c.output.empty()) io::write_text_file(c.output, [&](std::ostream& f) { f << csv.str(); });
+  if (!r.completed) throw RunFailure("the run stopped early: " + r.message);
+  return kExitOk;
+}
+#endif
+
 }  // namespace
 
 void register_benchmark(CLI::App& app, CommandContext& ctx) {
@@ -132,6 +199,23 @@ void register_benchmark(CLI::App& app, CommandContext& ctx) {
   land->add_option("--base", opts->base, "Base condition: fixed or sliding");
   land->add_option("-o,--output", opts->output, "Write the result table as CSV");
   land->add_option("--vtu", opts->vtu, "Write the deformed state as ParaView files into this directory");
+  auto aro = std::make_shared<ArosticaCliOptions>();
+  CLI::App* arost = bench->add_subcommand(
+      "arostica", "Arostica et al. 2025 cardiac elastodynamics benchmark, Benchmark 1 / Step 1 (3D FEM)");
+  arost->add_option("--mesh", aro->mesh, "P2 ellipsoid mesh: layers,rings,sectors (default 2,12,24)")->delimiter(',');
+  arost->add_option("--dt", aro->dt, "Time step [s] (default 1e-3, as the teams)");
+  arost->add_option("--end", aro->end_time, "End time [s] (default 1)");
+  arost->add_option("--transmural", aro->transmural, "Fibre layer coordinate: laplace (the benchmark's) or parametric");
+  arost->add_option("--penalty", aro->penalty,
+                    "Volumetric penalty: mixed (our u-p, default) or st91 (the benchmark's, displacement-only P2)");
+  arost->add_option("-o,--output", aro->output, "Write the p0/p1 curves as CSV (every 0.01 s)");
+  arost->callback([aro, &ctx] {
+#ifdef SIGMAHEART_HAVE_FEM
+    ctx.run = [aro, &ctx] { return run_arostica(*aro, ctx); };
+#else
+    ctx.run = [] () -> int { throw RunFailure("sigmaheart was built without model/fem"); };
+#endif
+  });
   land->callback([opts, &ctx] {
 #ifdef SIGMAHEART_HAVE_FEM
     ctx.run = [opts, &ctx] { return run_benchmark(*opts, ctx); };

@@ -163,4 +163,77 @@ void MooneyRivlin::stress(const Eigen::Matrix3d& E, const Frame&, Eigen::Matrix3
   D = 4.0 * (p_.c1 * f.d2f1 + p_.c2 * f.d2f2);
 }
 
+std::string HolzapfelOgdenParameters::validate() const {
+  if (!(a > 0 && b > 0)) return "Holzapfel-Ogden a and b must be positive (a in Pa)";
+  if (!(a_f >= 0 && a_s >= 0 && a_fs >= 0)) return "Holzapfel-Ogden a_f, a_s, a_fs must be >= 0 [Pa]";
+  if (!(b_f > 0 && b_s > 0 && b_fs > 0)) return "Holzapfel-Ogden b_f, b_s, b_fs must be positive";
+  if (!(k > 0)) return "Holzapfel-Ogden switch sharpness k must be positive";
+  if (!(kappa >= 0) || std::isinf(kappa)) return "Holzapfel-Ogden kappa must be finite and >= 0 [Pa]";
+  return {};
+}
+
+HolzapfelOgden::HolzapfelOgden(const HolzapfelOgdenParameters& p) : p_(p) {
+  if (auto m = p.validate(); !m.empty()) throw std::invalid_argument(m);
+}
+
+namespace {
+// psi(I4) = a/(2b) chi(I4) [exp(b (I4 - 1)^2) - 1] and its first two derivatives in I4.
+struct Scalar3 {
+  double v, d1, d2;
+};
+Scalar3 switched_fibre_term(double I4, double a, double b, double k) {
+  const double x = I4 - 1.0;
+  const double chi = 1.0 / (1.0 + std::exp(-k * x));
+  const double chi1 = k * chi * (1.0 - chi);
+  const double chi2 = k * chi1 * (1.0 - 2.0 * chi);
+  const double e = std::exp(b * x * x);
+  const double c = a / (2.0 * b);
+  const double g = e - 1.0, g1 = 2.0 * b * x * e, g2 = e * (2.0 * b + 4.0 * b * b * x * x);
+  return {c * chi * g, c * (chi1 * g + chi * g1), c * (chi2 * g + 2.0 * chi1 * g1 + chi * g2)};
+}
+}  // namespace
+
+double HolzapfelOgden::energy(const Eigen::Matrix3d& E, const Frame& R) const {
+  const Eigen::Matrix3d C = Eigen::Matrix3d::Identity() + 2.0 * E;
+  const Eigen::Vector3d f = R.col(0), s = R.col(1);
+  const double I3 = C.determinant();
+  const double I1b = std::pow(I3, -1.0 / 3.0) * C.trace();
+  const double I4f = f.dot(C * f), I4s = s.dot(C * s), I8 = f.dot(C * s);
+  double W = p_.a / (2 * p_.b) * (std::exp(p_.b * (I1b - 3.0)) - 1.0);
+  W += switched_fibre_term(I4f, p_.a_f, p_.b_f, p_.k).v + switched_fibre_term(I4s, p_.a_s, p_.b_s, p_.k).v;
+  W += p_.a_fs / (2 * p_.b_fs) * (std::exp(p_.b_fs * I8 * I8) - 1.0);
+  if (p_.kappa > 0) W += 0.25 * p_.kappa * (I3 - 1.0 - std::log(I3));  // J^2 - 1 - 2 ln J
+  return W;
+}
+
+void HolzapfelOgden::stress(const Eigen::Matrix3d& E, const Frame& R, Eigen::Matrix3d& S, Matrix9d& D) const {
+  // S = 2 dW/dC, D = 4 d2W/dC2 on the invariants' derivatives.
+  const Eigen::Matrix3d I = Eigen::Matrix3d::Identity();
+  const Eigen::Matrix3d C = I + 2.0 * E;
+  const Eigen::Vector3d f = R.col(0), s = R.col(1);
+  const IsochoricInvariants iso = isochoric_invariants(E);
+  const double e1 = std::exp(p_.b * (iso.f1 - 3.0));
+  Eigen::Matrix3d dW = 0.5 * p_.a * e1 * iso.df1;
+  Matrix9d d2W = 0.5 * p_.a * e1 * (p_.b * tensor_outer(iso.df1, iso.df1) + iso.d2f1);
+  const Eigen::Matrix3d Af = f * f.transpose(), As = s * s.transpose();
+  const Eigen::Matrix3d Afs = 0.5 * (f * s.transpose() + s * f.transpose());
+  const Scalar3 pf = switched_fibre_term(f.dot(C * f), p_.a_f, p_.b_f, p_.k);
+  const Scalar3 ps = switched_fibre_term(s.dot(C * s), p_.a_s, p_.b_s, p_.k);
+  dW += pf.d1 * Af + ps.d1 * As;
+  d2W += pf.d2 * tensor_outer(Af, Af) + ps.d2 * tensor_outer(As, As);
+  const double I8 = f.dot(C * s);
+  const double e8 = std::exp(p_.b_fs * I8 * I8);
+  dW += p_.a_fs * I8 * e8 * Afs;
+  d2W += p_.a_fs * e8 * (1.0 + 2.0 * p_.b_fs * I8 * I8) * tensor_outer(Afs, Afs);
+  S = 2.0 * dW;
+  D = 4.0 * d2W;
+  if (p_.kappa > 0) {
+    // Simo-Taylor 1991: S_vol = kappa/2 (J^2 - 1) C^-1, D_vol = kappa [J^2 C^-1 (x) C^-1 - (J^2 - 1) C^-1 (.) C^-1].
+    const Eigen::Matrix3d Ci = C.inverse();
+    const double J2 = C.determinant();
+    S += 0.5 * p_.kappa * (J2 - 1.0) * Ci;
+    D += p_.kappa * (J2 * tensor_outer(Ci, Ci) - (J2 - 1.0) * tensor_sym_product(Ci));
+  }
+}
+
 }  // namespace sigmaheart::model::fem

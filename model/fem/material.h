@@ -98,4 +98,42 @@ class MooneyRivlin final : public Material {
   MooneyRivlinParameters p_;
 };
 
+// Modified Holzapfel-Ogden law of the cardiac elastodynamics benchmark (Arostica et al. 2025,
+// CMAME 435:117485, doi:10.1016/j.cma.2024.117485, Benchmark 1; docs/notes/
+// arostica-2025-elastodynamics-benchmark.md s.2):
+//   W = a/(2b) [exp(b (I1bar - 3)) - 1]
+//     + sum_{i=f,s} a_i/(2 b_i) chi(I4i) [exp(b_i (I4i - 1)^2) - 1]
+//     + a_fs/(2 b_fs) [exp(b_fs I8fs^2) - 1]
+//     + W_vol,
+// I1bar = J^-2/3 tr C (isochoric), I4f = f.Cf, I4s = s.Cs, I8fs = f.Cs on the full C, and the
+// smooth tension switch chi(I4) = 1 / (1 + exp(-k (I4 - 1))). W_vol is the Simo-Taylor 1991
+// penalty kappa/4 (J^2 - 1 - 2 ln J) when kappa > 0 (then the mechanics runs displacement-only,
+// MechanicsOptions::displacement_only); kappa = 0 leaves compressibility to the mixed u-p term.
+struct HolzapfelOgdenParameters {
+  double a = 59.0;        // [Pa]
+  double b = 8.023;
+  double a_f = 18472.0;   // [Pa]
+  double b_f = 16.026;
+  double a_s = 2481.0;    // [Pa]
+  double b_s = 11.120;
+  double a_fs = 216.0;    // [Pa]
+  double b_fs = 11.436;
+  double k = 100.0;       // switch sharpness
+  double kappa = 1.0e6;   // [Pa] Simo-Taylor 1991 penalty; 0: none
+  std::string validate() const;
+};
+
+class HolzapfelOgden final : public Material {
+ public:
+  explicit HolzapfelOgden(const HolzapfelOgdenParameters& p);
+  double energy(const Eigen::Matrix3d& E, const Frame& R) const override;
+  void stress(const Eigen::Matrix3d& E, const Frame& R, Eigen::Matrix3d& S, Matrix9d& D) const override;
+  std::unique_ptr<Material> clone() const override { return std::make_unique<HolzapfelOgden>(p_); }
+  std::string name() const override { return "holzapfel-ogden"; }
+  const HolzapfelOgdenParameters& parameters() const { return p_; }
+
+ private:
+  HolzapfelOgdenParameters p_;
+};
+
 }  // namespace sigmaheart::model::fem

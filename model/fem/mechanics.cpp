@@ -86,6 +86,8 @@ Mechanics::Mechanics(const Mesh& mesh, std::vector<Frame> frames, std::unique_pt
   active_scale_.assign(ne, 1.0);
   ndof_ = 3 * mesh_.n_nodes() + mesh_.n_vertices;
   fixed_.assign(static_cast<size_t>(ndof_), 0);
+  if (opt_.displacement_only)
+    std::fill(fixed_.begin() + 3 * mesh_.n_nodes(), fixed_.end(), static_cast<char>(1));
 
   grad_.resize(ne * static_cast<size_t>(nqp_ * npt_ * 3));
   dv_.resize(ne * static_cast<size_t>(nqp_));

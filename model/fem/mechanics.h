@@ -38,6 +38,10 @@ LinearSolver parse_linear_solver(const std::string& s);
 
 struct MechanicsOptions {
   double bulk_modulus = 0.0;        // [Pa]; 0 or +inf: incompressible (Lagrange multiplier)
+  // Pure displacement formulation: the pressure unknowns are fixed at 0 (bulk_modulus is then
+  // unused) and the compressibility must come from the material's own volumetric energy (e.g.
+  // HolzapfelOgdenParameters::kappa).
+  bool displacement_only = false;
   int quadrature_degree = 5;        // tetrahedron rule degree (2 or 5); 5 is exact for P2 mass terms
   std::vector<int> pressure_surfaces = {kEndocardium};  // surface tags loaded by the pressure
   int load_steps = 10;              // uniform increments from the start to the target load

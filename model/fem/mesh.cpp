@@ -300,10 +300,12 @@ std::string EllipsoidGeometry::validate() const {
   if (!(r_short_epi > r_short_endo && r_long_epi > r_long_endo))
     return "epicardial radii must exceed the endocardial ones";
   if (!(z_base > -r_long_endo && z_base < r_long_endo)) return "z_base must cut the endocardium";
+  if (!std::isnan(z_base_epi) && !(z_base_epi > -r_long_epi && z_base_epi < r_long_epi))
+    return "z_base_epi must cut the epicardium (or be NaN for a plane base)";
   return {};
 }
 
-double EllipsoidGeometry::theta_base(double t) const { return std::acos(-z_base / r_long(t)); }
+double EllipsoidGeometry::theta_base(double t) const { return std::acos(-base_height(t) / r_long(t)); }
 
 Eigen::Vector3d EllipsoidGeometry::position(double t, double theta, double v) const {
   const double rs = r_short(t), rl = r_long(t);
@@ -392,7 +394,7 @@ Mesh ellipsoid_mesh(const EllipsoidGeometry& g, const EllipsoidMeshOptions& o) {
       const Eigen::Vector3d c = g.coordinates(x);
       endo = endo && std::abs(c[0]) < 1e-6;
       epi = epi && std::abs(c[0] - 1.0) < 1e-6;
-      base = base && std::abs(x.z() - g.z_base) < 1e-9 * g.r_long_epi;
+      base = base && std::abs(x.z() - g.base_height(c[0])) < 1e-9 * g.r_long_epi;
     }
     mesh.face_tag[static_cast<size_t>(f)] = base ? kBase : endo ? kEndocardium : epi ? kEpicardium : kNoTag;
   }

@@ -13,6 +13,8 @@
 #include <Eigen/Core>
 
 #include <array>
+#include <cmath>
+#include <limits>
 #include <map>
 #include <string>
 #include <vector>
@@ -79,7 +81,11 @@ struct EllipsoidGeometry {
   double r_long_endo = 17e-3;   // [m]
   double r_short_epi = 10e-3;   // [m]
   double r_long_epi = 20e-3;    // [m]
-  double z_base = 5e-3;         // [m] base plane
+  double z_base = 5e-3;         // [m] base plane (the base height at the endocardium)
+  // [m] base height at the epicardium; NaN (the default): z_base, a plane base. Otherwise the
+  // base height varies linearly in t from z_base to z_base_epi: the base is the ruled surface
+  // between the endocardial and the epicardial base rings (Arostica et al. 2025, Benchmark 1).
+  double z_base_epi = std::numeric_limits<double>::quiet_NaN();
 
   // Human-sized variant (docs/models.md s.4): endo 25/45 mm, epi 35/55 mm, base plane 5 mm x 45/17.
   static EllipsoidGeometry human();
@@ -87,6 +93,8 @@ struct EllipsoidGeometry {
 
   double r_short(double t) const { return r_short_endo + t * (r_short_epi - r_short_endo); }
   double r_long(double t) const { return r_long_endo + t * (r_long_epi - r_long_endo); }
+  // Height of the base on layer t [m].
+  double base_height(double t) const { return std::isnan(z_base_epi) ? z_base : z_base + t * (z_base_epi - z_base); }
   // Angle from the apex (0 at the apex, increasing toward the base) where layer t meets the base.
   double theta_base(double t) const;
   // Position of (t, theta, v) where theta in [0, theta_base(t)] is measured from the apex.

@@ -4,6 +4,8 @@
 #include <Eigen/Dense>
 #include <gtest/gtest.h>
 
+#include <limits>
+
 namespace sigmaheart::model::fem {
 namespace {
 
@@ -54,6 +56,45 @@ void check_law(const Material& m) {
   for (int I = 0; I < 3; ++I)
     for (int J = 0; J < 3; ++J)
       for (int c = 0; c < 9; ++c) EXPECT_NEAR(D(3 * I + J, c), D(3 * J + I, c), 1e-10 * D.norm()) << m.name();
+}
+
+// The modified Holzapfel-Ogden law of Arostica et al. 2025 with its Simo-Taylor penalty: S and D
+// against finite differences at a stretched state (I4f > 1) and at the test strain, and with the
+// fibre in compression (I4f < 1, where the switch chi is small but not zero).
+TEST(Material, HolzapfelOgdenStressAndTangentMatchFiniteDifferences) {
+  check_law(HolzapfelOgden({}));
+  HolzapfelOgdenParameters no_penalty;
+  no_penalty.kappa = 0.0;
+  check_law(HolzapfelOgden(no_penalty));
+  // Softer exponentials so the switch's own derivatives dominate near I4 = 1.
+  HolzapfelOgdenParameters p;
+  p.b_f = 1.0;
+  p.b_s = 1.0;
+  p.k = 20.0;
+  check_law(HolzapfelOgden(p));
+}
+
+TEST(Material, HolzapfelOgdenIsStressFreeInTheReferenceAndRejectsBadParameters) {
+  const HolzapfelOgden m({});
+  Eigen::Matrix3d S;
+  Matrix9d D;
+  m.stress(Eigen::Matrix3d::Zero(), test_frame(), S, D);
+  // chi(1) = 1/2 but (exp(0) - 1) = 0 and its derivative vanish at I4 = 1: no residual stress.
+  EXPECT_LT(S.norm(), 1e-9);
+  EXPECT_NEAR(m.energy(Eigen::Matrix3d::Zero(), test_frame()), 0.0, 1e-12);
+  // Small-strain bulk response of the ST91 penalty alone (the isochoric term does not see a
+  // dilatation; the anisotropic terms are switched off): tr(S)/3 = kappa (J - 1) (1 + O(e)).
+  HolzapfelOgdenParameters iso;
+  iso.a_f = iso.a_s = iso.a_fs = 0.0;
+  const double e = 1e-6;
+  HolzapfelOgden(iso).stress(e * Eigen::Matrix3d::Identity(), test_frame(), S, D);
+  EXPECT_NEAR(S.trace() / 3.0 / (3.0 * e), 1.0e6, 1.0e6 * 1e-5);
+  HolzapfelOgdenParameters bad;
+  bad.a = -1;
+  EXPECT_THROW(HolzapfelOgden{bad}, std::invalid_argument);
+  bad = {};
+  bad.kappa = std::numeric_limits<double>::infinity();
+  EXPECT_THROW(HolzapfelOgden{bad}, std::invalid_argument);
 }
 
 TEST(Material, GuccioneStressAndTangentMatchFiniteDifferences) {
