@@ -179,6 +179,20 @@ int run_arostica(const ArosticaCliOptions& c, CommandContext& ctx) {
   }
   if (!c.output.empty()) io::write_text_file(c.output, [&](std::ostream& f) { f << csv.str(); });
   if (!r.completed) throw RunFailure("the run stopped early: " + r.message);
+  // Verdict once the run has passed the codes' peak (0.47-0.48 s): our ux minima against the range
+  // of the ten codes' minima (configs/data/arostica-2025/step1_teams.csv). Outside is a failure
+  // (exit 1, the curves already written), not a result to pass over.
+  if (!r.time.empty() && r.time.back() >= 0.5) {
+    size_t k1 = 0;
+    for (size_t k = 0; k < r.time.size(); ++k)
+      if (r.p1[k].x() < r.p1[k1].x()) k1 = k;
+    const double p0_min = 1e3 * r.p0[kmin].x(), p1_min = 1e3 * r.p1[k1].x();  // [mm]
+    const bool inside = p0_min >= -35.867 && p0_min <= -34.347 && p1_min >= -27.568 && p1_min <= -26.138;
+    if (!inside)
+      throw RunFailure("not verified: the ux minima (p0 " + std::to_string(p0_min) + " mm, p1 " + std::to_string(p1_min) +
+                       " mm) lie outside the range of the ten codes' minima (p0 -35.867..-34.347 mm, p1 -27.568..-26.138 mm)");
+    ctx.out << "verified: both ux minima inside the range of the ten codes' minima\n";
+  }
   return kExitOk;
 }
 #endif

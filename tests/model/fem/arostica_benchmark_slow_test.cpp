@@ -10,39 +10,20 @@
 // docs/models.md s.4.9 has the values and what was ruled out (time step, penalty form, fibre
 // sampling, geometry, material, loads, time stepper).
 #include "model/fem/arostica_benchmark.h"
+#include "tests/model/fem/arostica_reference.h"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
-#include <sstream>
 #include <string>
 #include <vector>
 
 namespace sigmaheart::model::fem {
 namespace {
 
-// One column of a CSV under configs/data/arostica-2025/.
 std::vector<double> column(const std::string& file, const std::string& name) {
-  std::ifstream f(std::string(SIGMAHEART_SOURCE_DIR) + "/configs/data/arostica-2025/" + file);
-  if (!f) throw std::runtime_error("cannot open " + file);
-  std::string line;
-  std::getline(f, line);
-  std::stringstream hs(line);
-  std::string h;
-  int col = -1;
-  for (int i = 0; std::getline(hs, h, ','); ++i)
-    if (h == name) col = i;
-  if (col < 0) throw std::runtime_error("no column " + name + " in " + file);
-  std::vector<double> out;
-  while (std::getline(f, line)) {
-    std::stringstream ls(line);
-    std::string v;
-    for (int i = 0; i <= col; ++i) std::getline(ls, v, ',');
-    out.push_back(std::stod(v));
-  }
-  return out;
+  return testing::arostica_column(file, name);
 }
 
 // Time discretisation: halving the step from 2e-3 s to 1e-3 s (the teams' step) moves p0 and p1

@@ -3,13 +3,12 @@
 // benchmark.md s.4, the fibre check values of its s.1.3, the geometry (base rings, the points),
 // the point probe, and the first 0.05 s of Step 1 on a coarse mesh against the teams' ensemble.
 #include "model/fem/arostica_benchmark.h"
+#include "tests/model/fem/arostica_reference.h"
 
 #include <Eigen/Dense>
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <fstream>
-#include <sstream>
 #include <string>
 
 namespace sigmaheart::model::fem {
@@ -101,23 +100,7 @@ TEST(ArosticaBenchmark, MeshHasTheBenchmarkBaseRingsAndHoldsThePoints) {
 
 // The teams' ensemble (configs/data/arostica-2025/step1_ensemble.csv): column `name` [mm].
 std::vector<double> ensemble_column(const std::string& name) {
-  std::ifstream f(std::string(SIGMAHEART_SOURCE_DIR) + "/configs/data/arostica-2025/step1_ensemble.csv");
-  std::string line;
-  std::getline(f, line);
-  std::stringstream hs(line);
-  std::string h;
-  int col = -1;
-  for (int i = 0; std::getline(hs, h, ','); ++i)
-    if (h == name) col = i;
-  if (col < 0) throw std::runtime_error("no column " + name);
-  std::vector<double> out;
-  while (std::getline(f, line)) {
-    std::stringstream ls(line);
-    std::string v;
-    for (int i = 0; i <= col; ++i) std::getline(ls, v, ',');
-    out.push_back(std::stod(v));
-  }
-  return out;
+  return testing::arostica_column("step1_ensemble.csv", name);
 }
 
 // The shrunken experiment: the passive filling phase (0-0.05 s, preload pressure only) of Step 1
