@@ -115,6 +115,10 @@ Elastodynamics::Elastodynamics(const Mechanics& mechanics, ElastodynamicsOptions
     c_robin_.resize(n, n);
     c_robin_.setFromTriplets(tc.begin(), tc.end());
   }
+  {
+    const Newmark nm(opt_.time_step);
+    step_tangent_ = nm.c0 * mass_ + k_robin_ + 0.5 * nm.c1 * c_robin_;  // dv/du = gamma c0 h = 2/h
+  }
   solver_ = std::make_unique<SparseSolver>(opt_.linear_solver);
   solver_->set_saddle_point(3 * mesh.n_nodes());
   for (int i = 0; i < 3 * mesh.n_nodes(); ++i)
@@ -147,7 +151,7 @@ bool Elastodynamics::residual(const DynamicState& xn, const State& trial, const 
                    c_robin_.topLeftCorner(nu, nu) * v;
     if (!G->allFinite()) return false;
   }
-  if (K) *K += nm.c0 * mass_ + k_robin_ + 0.5 * nm.c1 * c_robin_;  // dv/du = gamma c0 h = 2/h
+  if (K) *K += step_tangent_;
   return true;
 }
 

@@ -106,6 +106,7 @@ class Elastodynamics {
   const Mechanics& mech_;
   ElastodynamicsOptions opt_;
   SparseMatrix mass_, k_robin_, c_robin_;
+  SparseMatrix step_tangent_;  // c0 M + K_robin + (c1/2) C_robin: the fixed part of every Newton tangent
   // One solver for all steps: the effective tangent's pattern never changes, so the symbolic
   // analysis is done once (step() is therefore not safe to call concurrently).
   std::unique_ptr<SparseSolver> solver_;

@@ -10,6 +10,9 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <memory>
+#include <stdexcept>
+#include <string>
 
 namespace sigmaheart::model::fem {
 namespace {
@@ -40,21 +43,31 @@ BeatIndices beat_indices(const RunResult& r) {
   return b;
 }
 
-// The `healthy` preset (model/fem/register.cpp): the periodic beat on the coarse mesh with the
-// healthy eikonal activation at 20 ms steps lies in the adult ranges of docs/models.md s.7.
-TEST(Lv3dPreset, TheHealthyPresetBeatsInTheAdultRanges) {
+// The lv-3d preset `name` built as a config naming it would build it (its numerics under `numerics`,
+// its values over the defaults), and its nominal parameters.
+struct PresetModel {
+  std::unique_ptr<Simulator> sim;
+  Eigen::VectorXd theta;
+};
+
+PresetModel preset_model(const std::string& name, const MapOptions& numerics) {
   ModelRegistry registry;
   register_fem_models(registry);
   const ModelSetup* setup = registry.find("lv-3d");
-  ASSERT_NE(setup, nullptr);
-  const Preset* preset = setup->find_preset("healthy");
-  ASSERT_NE(preset, nullptr);
-  const ModelBuild build =
-      setup->configure(MapOptions({{"mesh", "coarse"}, {"dt", "0.02"}, {"activation", "healthy"}, {"max_beats", "8"}}));
+  const Preset* preset = setup ? setup->find_preset(name) : nullptr;
+  if (!preset) throw std::logic_error("no lv-3d preset " + name);
+  const ModelBuild build = setup->configure(*with_defaults(numerics, preset->numerics));
   ParameterSpace space = build.parameters();
-  for (const auto& [name, value] : preset->values) space.set_nominal(name, value);
-  const auto sim = build.make(space);
-  const RunResult r = sim->run(space.nominal());
+  for (const auto& [parameter, value] : preset->values) space.set_nominal(parameter, value);
+  return {build.make(space), space.nominal()};
+}
+
+// The `healthy` preset (model/fem/register.cpp): the periodic beat on the coarse mesh with the
+// healthy eikonal activation at 20 ms steps lies in the adult ranges of docs/models.md s.7.
+TEST(Lv3dPreset, TheHealthyPresetBeatsInTheAdultRanges) {
+  const PresetModel m =
+      preset_model("healthy", MapOptions({{"mesh", "coarse"}, {"dt", "0.02"}, {"activation", "healthy"}, {"max_beats", "8"}}));
+  const RunResult r = m.sim->run(m.theta);
   ASSERT_TRUE(r.status.ok()) << r.status.message;
   const BeatIndices b = beat_indices(r);
   // Measured: EDV 147.8 mL, ESV 52.8 mL, EF 64.3 %, dP/dt max 1298 mmHg/s (the channel's
@@ -79,22 +92,13 @@ TEST(Lv3dPreset, TheHealthyPresetBeatsInTheAdultRanges) {
 // geometry) come with it through with_defaults; on the coarse mesh at 20 ms steps the periodic beat
 // lies in the failing ranges of docs/models.md s.7 and the LV activation lasts as long as a LBBB QRS.
 TEST(Lv3dPreset, TheLbbbHeartFailurePresetBeatsInTheFailingRanges) {
-  ModelRegistry registry;
-  register_fem_models(registry);
-  const ModelSetup* setup = registry.find("lv-3d");
-  ASSERT_NE(setup, nullptr);
-  const Preset* preset = setup->find_preset("lbbb-heart-failure");
-  ASSERT_NE(preset, nullptr);
-  const MapOptions numerics({{"mesh", "coarse"}, {"dt", "0.02"}, {"max_beats", "8"}});
-  const ModelBuild build = setup->configure(*with_defaults(numerics, preset->numerics));
-  ParameterSpace space = build.parameters();
-  for (const auto& [name, value] : preset->values) space.set_nominal(name, value);
-  const auto sim = build.make(space);
-  auto* lv = dynamic_cast<LeftVentricle3D*>(sim.get());
+  const PresetModel m =
+      preset_model("lbbb-heart-failure", MapOptions({{"mesh", "coarse"}, {"dt", "0.02"}, {"max_beats", "8"}}));
+  auto* lv = dynamic_cast<LeftVentricle3D*>(m.sim.get());
   ASSERT_NE(lv, nullptr);
   EXPECT_EQ(lv->options().activation, ActivationSource::kLbbb);
   EXPECT_DOUBLE_EQ(lv->options().geometry.r_short_endo, 0.028);
-  const RunResult r = sim->run(space.nominal());
+  const RunResult r = m.sim->run(m.theta);
   ASSERT_TRUE(r.status.ok()) << r.status.message;
   const BeatIndices b = beat_indices(r);
   const std::vector<double>& td = lv->activation_times();
