@@ -5,6 +5,13 @@
 //    outward) and take the physical tag of the matching triangle; physical names containing
 //    "endo", "epi", "base" map to kEndocardium, kEpicardium, kBase. Nodes are renumbered with the
 //    corners first. Errors: MeshReadError naming file, line and what was expected.
+//  - legacy DOLFIN HDF5 mesh reader (the format of the Arostica et al. 2025 benchmark toolkit's
+//    ellipsoid_0.005.h5): /Mesh/mesh/geometry (n x 3, m), /Mesh/mesh/topology (n x 4 linear
+//    tetrahedra) and optionally a facet MeshFunction (/MeshFunction/<k>/mesh/topology n x 3 and
+//    /MeshFunction/<k>/values) whose values become the boundary-face tags as they are (the toolkit's
+//    1 endocardium, 2 epicardium, 3 base equal kEndocardium, kEpicardium, kBase); unset markers
+//    (0 or the all-ones value) leave kNoTag. Tetrahedra are reoriented positive. Errors:
+//    MeshReadError naming the file, the dataset and what was expected.
 //  - ParaView output: one .vtu per step (reference geometry, displacement and pressure point
 //    data, fibre, AHA segment and tag cell data) and a .pvd collection. Files are written to a
 //    temporary name and renamed.
@@ -29,6 +36,9 @@ class MeshReadError : public std::runtime_error {
 // Reads a gmsh file; `text` variant parses a string (name used in messages).
 model::fem::Mesh read_gmsh(const std::string& path);
 model::fem::Mesh parse_gmsh(const std::string& text, const std::string& name = "<string>");
+
+// Reads a legacy DOLFIN HDF5 mesh (linear tetrahedra; see above).
+model::fem::Mesh read_dolfin_hdf5(const std::string& path);
 
 struct VtuFields {
   const Eigen::VectorXd* displacement = nullptr;  // 3 per node [m]

@@ -9,7 +9,10 @@ monoventricular_nonblinded_step_1_group_<team>.pickle, MIT licence) and writes, 
                       (p0, p1 x ux, uy, uz): mean, population std, min and max over the teams;
   step1_teams.csv     per team: the p0 and p1 ux minimum and its time, and RED (relative error to
                       the ensemble mean, as the toolkit's results/figures.py defines it:
-                      mean over samples of |u_i - u_mean| / |u_mean|, vectors of (ux, uy, uz)).
+                      mean over samples of |u_i - u_mean| / |u_mean|, vectors of (ux, uy, uz));
+  ellipsoid_0.005.h5  the organisers' tetrahedral mesh (data/monoventricle_mesh/ellipsoid_0.005.h5,
+                      legacy DOLFIN HDF5: geometry, topology, facet markers 1 endo / 2 epi / 3 base),
+                      the same datasets and values repacked with gzip (1.17 MB -> 0.32 MB); needs h5py.
 
 Curves are stacked by sample index, as the toolkit and the paper do (Ambit and Simula sample at
 0.001, 0.01, ..., Simula ends at 0.999 s). Numpy only. The pickles are trusted input (they hold
@@ -33,17 +36,30 @@ TEAMS = ["carpentry", "ambit", "4c", "simula", "chimera", "cheart", "lifex", "si
 POINTS = ["p0", "p1"]
 COMPONENTS = ["ux", "uy", "uz"]
 PATH = "results/data/monoventricular_nonblinded_step_1_group_{}.pickle"
+MESH = "data/monoventricle_mesh/ellipsoid_0.005.h5"
+MESH_DATASETS = ["Mesh/mesh/geometry", "Mesh/mesh/topology", "MeshFunction/0/mesh/topology", "MeshFunction/0/values"]
 
 
-def load(args, team):
-    path = PATH.format(team)
+def read_raw(args, path):
     if args.git_dir:
         raw = subprocess.run(["git", "--git-dir", args.git_dir, "show", f"{args.commit}:{path}"], check=True,
                              capture_output=True).stdout
     else:
         with open(os.path.join(args.toolkit, path), "rb") as f:
             raw = f.read()
-    return pickle.load(io.BytesIO(raw))
+    return raw
+
+
+def load(args, team):
+    return pickle.load(io.BytesIO(read_raw(args, PATH.format(team))))
+
+
+def repack_mesh(args):
+    import h5py  # Debian python3-h5py
+    with h5py.File(io.BytesIO(read_raw(args, MESH)), "r") as src, \
+            h5py.File(os.path.join(args.out, "ellipsoid_0.005.h5"), "w") as dst:
+        for name in MESH_DATASETS:
+            dst.create_dataset(name, data=src[name][()], compression="gzip", compression_opts=9, shuffle=True)
 
 
 def main():
@@ -82,6 +98,7 @@ def main():
             red = [float(np.mean(np.linalg.norm(u[:, i] - mean[:, i], axis=1) / np.linalg.norm(mean[:, i], axis=1)))
                    for i in range(2)]
             f.write(f"{team},{u[k0, 0, 0]:.4f},{time[k0]:.2f},{u[k1, 1, 0]:.4f},{time[k1]:.2f},{red[0]:.4f},{red[1]:.4f}\n")
+    repack_mesh(args)
 
 
 if __name__ == "__main__":

@@ -199,7 +199,17 @@ std::string ArosticaOptions::validate() const {
 
 ArosticaResult run_arostica_step1(const ArosticaOptions& o, const ArosticaProgress& progress) {
   if (auto m = o.validate(); !m.empty()) throw std::invalid_argument("ArosticaOptions: " + m);
-  const Mesh mesh = arostica_mesh(o.mesh);
+  return run_arostica_step1(arostica_mesh(o.mesh), o, progress);
+}
+
+ArosticaResult run_arostica_step1(const Mesh& mesh, const ArosticaOptions& o, const ArosticaProgress& progress) {
+  if (auto m = o.validate(); !m.empty()) throw std::invalid_argument("ArosticaOptions: " + m);
+  if (mesh.order == 1 && o.penalty == PenaltyForm::kMixed)
+    throw std::invalid_argument("linear (P1) meshes need the st91 penalty: P1-P1 u-p is not inf-sup stable");
+  for (const int tag : {kEndocardium, kEpicardium, kBase})
+    if (std::find(mesh.face_tag.begin(), mesh.face_tag.end(), tag) == mesh.face_tag.end())
+      throw std::invalid_argument("the mesh has no boundary face tagged " + std::to_string(tag) +
+                                  " (1 endocardium, 2 epicardium, 3 base)");
   // Material and compressibility (note s.2).
   HolzapfelOgdenParameters hp;
   MechanicsOptions mo;

@@ -140,4 +140,11 @@ using ArosticaProgress = std::function<void(double t, int sample, int newton_ite
 // completed = false and the message saying where.
 ArosticaResult run_arostica_step1(const ArosticaOptions& options, const ArosticaProgress& progress = {});
 
+// The same on a given mesh in the benchmark frame (tags 1 endocardium, 2 epicardium, 3 base), e.g.
+// the organisers' ellipsoid_0.005 read by app/io (options.mesh is then unused). Linear meshes need
+// PenaltyForm::kSimoTaylor (P1-P1 u-p is not inf-sup stable). Throws std::invalid_argument when the
+// mesh lacks a tagged surface or a probe point.
+ArosticaResult run_arostica_step1(const Mesh& mesh, const ArosticaOptions& options,
+                                  const ArosticaProgress& progress = {});
+
 }  // namespace sigmaheart::model::fem

@@ -1,9 +1,14 @@
-// gmsh reader (v2 and v4.1, linear and quadratic, tags, errors) and the ParaView writer.
+// gmsh reader (v2 and v4.1, linear and quadratic, tags, errors), the legacy DOLFIN HDF5 reader
+// (the Arostica et al. 2025 benchmark mesh bundled under configs/data/arostica-2025/) and the
+// ParaView writer.
+#include "app/io/hdf5_writer.h"
 #include "app/io/mesh_io.h"
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
+#include <map>
 #include <fstream>
 #include <sstream>
 
@@ -138,6 +143,85 @@ TEST(MeshIo, WritesVtuAndPvd) {
   for (const auto& e : std::filesystem::directory_iterator(dir)) {
     EXPECT_NE(e.path().extension(), ".tmp") << e.path();  // the temporary was renamed
   }
+  std::filesystem::remove_all(dir);
+}
+
+// The organisers' ellipsoid_0.005 (toolkit data/monoventricle_mesh, repacked with gzip): sizes,
+// tags as the toolkit's gmsh script sets them (1 endo, 2 epi, 3 base), and every tagged vertex on
+// its surface: the endocardium and epicardium on their ellipsoids (r_s 25 / 35 mm, r_l 90 / 97 mm,
+// long axis x; note s.1.1), the base between the rings x = 90 * 5/17 mm and 97/4 mm.
+TEST(MeshIo, ReadsTheArosticaBenchmarkMeshFromDolfinHdf5) {
+  const Mesh m = read_dolfin_hdf5(std::string(SIGMAHEART_SOURCE_DIR) + "/configs/data/arostica-2025/ellipsoid_0.005.h5");
+  EXPECT_EQ(m.order, 1);
+  EXPECT_EQ(m.n_nodes(), 4577);
+  EXPECT_EQ(m.n_tets(), 17625);
+  EXPECT_EQ(m.check(), "");
+  ASSERT_EQ(m.faces.rows(), 6230);
+  std::map<int, int> count;
+  for (int t : m.face_tag) ++count[t];
+  EXPECT_EQ(count[kEndocardium], 2500);
+  EXPECT_EQ(count[kEpicardium], 3474);
+  EXPECT_EQ(count[kBase], 256);
+  EXPECT_EQ(count[kNoTag], 0);
+  const auto on_ellipsoid = [&](int v, double rs, double rl) {
+    const double x = m.nodes(v, 0), r = std::hypot(m.nodes(v, 1), m.nodes(v, 2));
+    return std::abs(x * x / (rl * rl) + r * r / (rs * rs) - 1.0);
+  };
+  double endo = 0, epi = 0, base_lo = 1, base_hi = -1;
+  for (int v : m.nodes_with_tag(kEndocardium)) endo = std::max(endo, on_ellipsoid(v, 0.025, 0.090));
+  for (int v : m.nodes_with_tag(kEpicardium)) epi = std::max(epi, on_ellipsoid(v, 0.035, 0.097));
+  for (int v : m.nodes_with_tag(kBase)) {
+    base_lo = std::min(base_lo, m.nodes(v, 0));
+    base_hi = std::max(base_hi, m.nodes(v, 0));
+  }
+  EXPECT_LT(endo, 1e-6);
+  EXPECT_LT(epi, 1e-6);
+  EXPECT_NEAR(base_lo, 0.097 / 4, 1e-9);
+  EXPECT_NEAR(base_hi, 0.090 * 5 / 17, 1e-9);
+}
+
+TEST(MeshIo, DolfinHdf5ErrorsNameTheFileTheDatasetAndWhatWasExpected) {
+  const auto dir = std::filesystem::temp_directory_path() / "sigmaheart_dolfin_h5_test";
+  std::filesystem::create_directories(dir);
+  const auto message = [](const std::filesystem::path& p) {
+    try {
+      read_dolfin_hdf5(p.string());
+    } catch (const MeshReadError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(message(dir / "none.h5"), (dir / "none.h5").string() + ": cannot open file");
+  {
+    std::ofstream(dir / "text.h5") << "not hdf5\n";
+  }
+  EXPECT_EQ(message(dir / "text.h5"), (dir / "text.h5").string() + ": not an HDF5 file");
+  Eigen::MatrixXd xyz(4, 3);
+  xyz << 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1;
+  const auto write = [&](const std::string& name, const Eigen::MatrixXd& topology) {
+    Hdf5Writer w(dir / name);
+    w.create_group("/Mesh/mesh");
+    w.write_matrix("/Mesh/mesh/geometry", xyz);
+    if (topology.size() > 0) w.write_matrix("/Mesh/mesh/topology", topology);
+    w.commit();
+    return dir / name;
+  };
+  EXPECT_EQ(message(write("no_topology.h5", Eigen::MatrixXd())),
+            (dir / "no_topology.h5").string() + ": dataset /Mesh/mesh/topology missing (expected a legacy DOLFIN HDF5 mesh)");
+  Eigen::MatrixXd tri(1, 3);
+  tri << 0, 1, 2;
+  EXPECT_EQ(message(write("triangles.h5", tri)),
+            (dir / "triangles.h5").string() + ": dataset /Mesh/mesh/topology has 3 columns, expected 4");
+  Eigen::MatrixXd bad(1, 4);
+  bad << 0, 1, 2, 7;
+  EXPECT_EQ(message(write("index.h5", bad)),
+            (dir / "index.h5").string() + ": /Mesh/mesh/topology row 0 names vertex 7, expected 0..3");
+  Eigen::MatrixXd good(1, 4);
+  good << 0, 2, 1, 3;  // negatively oriented: reordered
+  const Mesh m = read_dolfin_hdf5(write("one.h5", good).string());
+  EXPECT_EQ(m.n_tets(), 1);
+  EXPECT_NEAR(m.volume(), 1.0 / 6.0, 1e-15);
+  EXPECT_EQ(m.faces.rows(), 4);
   std::filesystem::remove_all(dir);
 }
 
