@@ -1,15 +1,17 @@
 #include "app/io/mesh_io.h"
 
+#include "app/errors.h"
 #include "app/io/atomic_file.h"
+#include "app/io/hdf5_writer.h"
 
 #include <Eigen/Dense>
-#include <hdf5.h>
 
 #include <algorithm>
 #include <cctype>
 #include <cstdio>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <sstream>
 #include <unordered_map>
 
@@ -456,145 +458,90 @@ void write_pvd(const std::string& path, const std::vector<std::pair<double, std:
   file.commit();
 }
 
-namespace {
-
-// An HDF5 handle closed on scope exit.
-struct H5Handle {
-  hid_t id = -1;
-  herr_t (*close)(hid_t) = nullptr;
-  H5Handle(hid_t i, herr_t (*c)(hid_t)) : id(i), close(c) {}
-  H5Handle(const H5Handle&) = delete;
-  H5Handle& operator=(const H5Handle&) = delete;
-  ~H5Handle() {
-    if (id >= 0) close(id);
-  }
-};
-
-// HDF5 prints its own error stack by default; the reader reports its errors itself.
-struct QuietHdf5 {
-  H5E_auto2_t func = nullptr;
-  void* data = nullptr;
-  QuietHdf5() {
-    H5Eget_auto2(H5E_DEFAULT, &func, &data);
-    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-  }
-  QuietHdf5(const QuietHdf5&) = delete;
-  QuietHdf5& operator=(const QuietHdf5&) = delete;
-  ~QuietHdf5() { H5Eset_auto2(H5E_DEFAULT, func, data); }
-};
-
-// A two-dimensional dataset read as `T` (HDF5 converts from the stored type); rows x cols.
-template <typename T>
-std::vector<T> read_matrix(hid_t file, const std::string& path, const std::string& name, hid_t mem_type,
-                           int expected_cols, size_t& rows) {
-  if (H5Lexists(file, path.c_str(), H5P_DEFAULT) <= 0)
-    throw MeshReadError(name + ": dataset " + path + " missing (expected a legacy DOLFIN HDF5 mesh)");
-  H5Handle ds(H5Dopen2(file, path.c_str(), H5P_DEFAULT), H5Dclose);
-  if (ds.id < 0) throw MeshReadError(name + ": cannot open dataset " + path);
-  H5Handle sp(H5Dget_space(ds.id), H5Sclose);
-  const int rank = H5Sget_simple_extent_ndims(sp.id);
-  hsize_t dims[2] = {0, 1};
-  if (rank < 1 || rank > 2 || H5Sget_simple_extent_dims(sp.id, dims, nullptr) < 0)
-    throw MeshReadError(name + ": dataset " + path + " must be one- or two-dimensional");
-  const hsize_t cols = rank == 2 ? dims[1] : 1;
-  if (static_cast<int>(cols) != expected_cols)
-    throw MeshReadError(name + ": dataset " + path + " has " + std::to_string(cols) + " columns, expected " +
-                        std::to_string(expected_cols));
-  rows = static_cast<size_t>(dims[0]);
-  std::vector<T> out(rows * static_cast<size_t>(cols));
-  if (!out.empty() && H5Dread(ds.id, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data()) < 0)
-    throw MeshReadError(name + ": cannot read dataset " + path + " as " +
-                        (mem_type == H5T_NATIVE_DOUBLE ? "numbers" : "integers"));
-  return out;
-}
-
-}  // namespace
-
 Mesh read_dolfin_hdf5(const std::string& path) {
   {
     std::ifstream probe(path, std::ios::binary);
     if (!probe) throw MeshReadError(path + ": cannot open file");
   }
-  const QuietHdf5 quiet;
-  if (H5Fis_hdf5(path.c_str()) <= 0) throw MeshReadError(path + ": not an HDF5 file");
-  H5Handle file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
-  if (file.id < 0) throw MeshReadError(path + ": cannot open as HDF5");
-  size_t nv = 0, nt = 0;
-  const auto xyz = read_matrix<double>(file.id, "/Mesh/mesh/geometry", path, H5T_NATIVE_DOUBLE, 3, nv);
-  const auto tet = read_matrix<long long>(file.id, "/Mesh/mesh/topology", path, H5T_NATIVE_LLONG, 4, nt);
+  std::unique_ptr<Hdf5Reader> reader;
+  try {
+    reader = std::make_unique<Hdf5Reader>(path);
+  } catch (const InputError&) {
+    throw MeshReadError(path + ": not an HDF5 file");
+  }
+  const Hdf5Reader& h5 = *reader;
+  // A two-dimensional dataset with `cols` columns (HDF5 converts integers to double exactly).
+  const auto matrix = [&](const std::string& name, Eigen::Index cols) {
+    if (!h5.exists(name)) throw MeshReadError(path + ": dataset " + name + " missing (expected a legacy DOLFIN HDF5 mesh)");
+    Eigen::MatrixXd m;
+    try {
+      m = h5.read_matrix(name);
+    } catch (const InputError& e) {
+      throw MeshReadError(path + ": " + e.message());
+    }
+    if (m.cols() != cols)
+      throw MeshReadError(path + ": dataset " + name + " has " + std::to_string(m.cols()) + " columns, expected " +
+                          std::to_string(cols));
+    return m;
+  };
+  // Entry (r, c) of `m` (dataset `name`) as a vertex index below nv.
+  const auto vertex = [&](const Eigen::MatrixXd& m, const std::string& name, Eigen::Index r, Eigen::Index c,
+                          Eigen::Index nv) {
+    const double x = m(r, c);
+    if (!(x >= 0 && x < static_cast<double>(nv) && x == std::floor(x)))
+      throw MeshReadError(path + ": " + name + " row " + std::to_string(r) + " names vertex " +
+                          (x == std::floor(x) ? std::to_string(static_cast<long long>(x)) : std::to_string(x)) +
+                          ", expected 0.." + std::to_string(nv - 1));
+    return static_cast<int>(x);
+  };
+  const Eigen::MatrixXd xyz = matrix("/Mesh/mesh/geometry", 3);
+  const Eigen::MatrixXd tet = matrix("/Mesh/mesh/topology", 4);
+  const Eigen::Index nv = xyz.rows(), nt = tet.rows();
   if (nv < 4 || nt < 1) throw MeshReadError(path + ": the mesh has no tetrahedra");
+  for (Eigen::Index i = 0; i < nv; ++i)
+    if (!xyz.row(i).allFinite()) throw MeshReadError(path + ": /Mesh/mesh/geometry row " + std::to_string(i) + " is not finite");
   Mesh m;
   m.order = 1;
   m.n_vertices = static_cast<int>(nv);
-  m.nodes.resize(static_cast<Eigen::Index>(nv), 3);
-  for (size_t i = 0; i < nv; ++i)
-    for (int d = 0; d < 3; ++d) {
-      const double x = xyz[3 * i + static_cast<size_t>(d)];
-      if (!std::isfinite(x))
-        throw MeshReadError(path + ": /Mesh/mesh/geometry row " + std::to_string(i) + " is not finite");
-      m.nodes(static_cast<Eigen::Index>(i), d) = x;
-    }
-  m.tets.resize(static_cast<Eigen::Index>(nt), 4);
-  m.tet_tag.assign(nt, 0);
-  for (size_t e = 0; e < nt; ++e) {
-    for (int a = 0; a < 4; ++a) {
-      const long long v = tet[4 * e + static_cast<size_t>(a)];
-      if (v < 0 || v >= static_cast<long long>(nv))
-        throw MeshReadError(path + ": /Mesh/mesh/topology row " + std::to_string(e) + " names vertex " +
-                            std::to_string(v) + ", expected 0.." + std::to_string(nv - 1));
-      m.tets(static_cast<Eigen::Index>(e), a) = static_cast<int>(v);
-    }
-    const auto E = static_cast<Eigen::Index>(e);
+  m.nodes = xyz;
+  m.tets.resize(nt, 4);
+  m.tet_tag.assign(static_cast<size_t>(nt), 0);
+  for (Eigen::Index e = 0; e < nt; ++e) {
+    for (int a = 0; a < 4; ++a) m.tets(e, a) = vertex(tet, "/Mesh/mesh/topology", e, a, nv);
     Eigen::Matrix3d J;
-    for (int d = 0; d < 3; ++d) J.col(d) = (m.nodes.row(m.tets(E, d + 1)) - m.nodes.row(m.tets(E, 0))).transpose();
+    for (int d = 0; d < 3; ++d) J.col(d) = (m.nodes.row(m.tets(e, d + 1)) - m.nodes.row(m.tets(e, 0))).transpose();
     const double det = J.determinant();
     if (!(std::abs(det) > 0))
       throw MeshReadError(path + ": tetrahedron " + std::to_string(e) + " (/Mesh/mesh/topology) has zero volume");
-    if (det < 0) std::swap(m.tets(E, 1), m.tets(E, 2));
+    if (det < 0) std::swap(m.tets(e, 1), m.tets(e, 2));
   }
   extract_boundary_faces(m);
-  // Facet markers: the first MeshFunction whose entities are triangles.
-  for (int k = 0; k < 16; ++k) {
-    const std::string g = "/MeshFunction/" + std::to_string(k);
-    if (H5Lexists(file.id, "/MeshFunction", H5P_DEFAULT) <= 0 || H5Lexists(file.id, g.c_str(), H5P_DEFAULT) <= 0) break;
-    const std::string topo = g + "/mesh/topology", vals = g + "/values";
-    if (H5Lexists(file.id, (g + "/mesh").c_str(), H5P_DEFAULT) <= 0 || H5Lexists(file.id, topo.c_str(), H5P_DEFAULT) <= 0)
-      continue;
-    size_t nf = 0, nval = 0;
-    {
-      H5Handle ds(H5Dopen2(file.id, topo.c_str(), H5P_DEFAULT), H5Dclose);
-      H5Handle sp(H5Dget_space(ds.id), H5Sclose);
-      hsize_t dims[2] = {0, 0};
-      if (H5Sget_simple_extent_ndims(sp.id) != 2 || H5Sget_simple_extent_dims(sp.id, dims, nullptr) < 0 || dims[1] != 3)
-        continue;  // a cell or vertex function
-    }
-    const auto tri = read_matrix<long long>(file.id, topo, path, H5T_NATIVE_LLONG, 3, nf);
-    const auto val = read_matrix<unsigned long long>(file.id, vals, path, H5T_NATIVE_ULLONG, 1, nval);
-    if (nval != nf)
-      throw MeshReadError(path + ": " + vals + " has " + std::to_string(nval) + " values for " + std::to_string(nf) +
-                          " facets");
+  // Facet markers: the first MeshFunction whose entities are triangles. Unset markers are 0 or
+  // the all-ones value (2^64 - 1, read as a double >= 2^63).
+  for (int k = 0; h5.exists("/MeshFunction/" + std::to_string(k)); ++k) {
+    const std::string g = "/MeshFunction/" + std::to_string(k), topo = g + "/mesh/topology", vals = g + "/values";
+    if (!h5.exists(topo)) continue;
+    const Eigen::MatrixXd tri = h5.read_matrix(topo);
+    if (tri.cols() != 3) continue;  // a cell or vertex function
+    const Eigen::MatrixXd val = matrix(vals, 1);
+    if (val.rows() != tri.rows())
+      throw MeshReadError(path + ": " + vals + " has " + std::to_string(val.rows()) + " values for " +
+                          std::to_string(tri.rows()) + " facets");
     std::map<std::array<int, 3>, int> tag;
-    for (size_t f = 0; f < nf; ++f) {
-      const unsigned long long v = val[f];
-      if (v == 0 || v == ~0ULL) continue;  // unset
-      if (v > 1000000ULL)
+    for (Eigen::Index f = 0; f < tri.rows(); ++f) {
+      const double v = val(f, 0);
+      if (v == 0.0 || v >= 9.2e18) continue;  // unset
+      if (!(v > 0 && v <= 1e6 && v == std::floor(v)))
         throw MeshReadError(path + ": " + vals + " row " + std::to_string(f) + " is " + std::to_string(v) +
                             ", expected a small marker (or 0 / all ones for unset)");
-      std::array<int, 3> s{};
-      for (int a = 0; a < 3; ++a) {
-        const long long x = tri[3 * f + static_cast<size_t>(a)];
-        if (x < 0 || x >= static_cast<long long>(nv))
-          throw MeshReadError(path + ": " + topo + " row " + std::to_string(f) + " names vertex " + std::to_string(x) +
-                              ", expected 0.." + std::to_string(nv - 1));
-        s[static_cast<size_t>(a)] = static_cast<int>(x);
-      }
-      std::sort(s.begin(), s.end());
-      tag[s] = static_cast<int>(v);
+      std::array<int, 3> s3{vertex(tri, topo, f, 0, nv), vertex(tri, topo, f, 1, nv), vertex(tri, topo, f, 2, nv)};
+      std::sort(s3.begin(), s3.end());
+      tag[s3] = static_cast<int>(v);
     }
     for (Eigen::Index f = 0; f < m.faces.rows(); ++f) {
-      std::array<int, 3> s{m.faces(f, 0), m.faces(f, 1), m.faces(f, 2)};
-      std::sort(s.begin(), s.end());
-      if (auto it = tag.find(s); it != tag.end()) m.face_tag[static_cast<size_t>(f)] = it->second;
+      std::array<int, 3> s3{m.faces(f, 0), m.faces(f, 1), m.faces(f, 2)};
+      std::sort(s3.begin(), s3.end());
+      if (auto it = tag.find(s3); it != tag.end()) m.face_tag[static_cast<size_t>(f)] = it->second;
     }
     break;
   }
