@@ -5,8 +5,16 @@
 // BoomerAMG). Counters: tetrahedra, unknowns of the
 // mechanics (u, p), Newton iterations and step cuts of the beat, EF of the beat [%].
 //   build/bench/lv3d_beat_bench --benchmark_counters_tabular=true
-// The target of issue 13: a beat on about 10 000 tetrahedra under 60 s on one core; not met (see
-// BM_Lv3dBeatBySize below: about 1400 s extrapolated).
+// The target of issue 13: a beat on about 10 000 tetrahedra under 60 s on one core. Not met: linear
+// tetrahedra (BM_Lv3dBeatLinearBySize, element_order 1) on the fine mesh take 79.7 s, the
+// quadratic ones about 1400 s extrapolated (BM_Lv3dBeatBySize).
+// Linear tetrahedra, UMFPACK on OpenBLAS, 1 thread (2026-11-26 22:21 UTC, second core busy with
+// another job): 396 / 3312 / 11 340 / 27 072 tets (584 / 3468 / 10 384 / 23 060 unknowns)
+// 1.34 / 19.0 / 79.7 / 276 s, 1035 / 1135 / 1275 / 1285 Newton iterations, EF 41.8 / 42.5 / 41.4 /
+// 41.1 %; growth unknowns^1.49 / 1.31 / 1.56 between neighbours.
+//   build/bench/lv3d_beat_bench --benchmark_filter='LinearBySize'
+// Quadratic, UMFPACK on OpenBLAS (the build had linked ATLAS before, CMakeLists.txt), same session:
+// 396 / 918 / 1656 / 3312 tets 13.1 / 40.7 / 80.8 / 230 s (within 5 % of the ATLAS figures below).
 // Measured on the shared 2-core machine (load average 4-10 from other builds, so wall times are
 // upper bounds; SparseLU, quadrature degree 2):
 //   coarse (396 tets, 2639 unknowns), one beat at dt 5 ms: 1 thread 26.1 s wall / 24.7 s CPU,
@@ -115,6 +123,21 @@ void BM_Lv3dBeatBySizeAmg(benchmark::State& st) {
   o.linear_tolerance = std::pow(10.0, -static_cast<double>(st.range(4)));
   beat(st, o, static_cast<int>(st.range(3)));
 }
+// Linear tetrahedra (element_order 1, P1-P1 with a 10 MPa bulk modulus, one quadrature point;
+// docs/models.md s.4.8, "Linear tetrahedra"), UMFPACK: arguments (n_transmural, n_longitudinal,
+// n_circumferential, threads). The fine preset (3, 18, 36) has 11 340 tetrahedra, the size of the
+// issue's target.
+void BM_Lv3dBeatLinearBySize(benchmark::State& st) {
+  LeftVentricle3DOptions o;
+  o.n_transmural = static_cast<int>(st.range(0));
+  o.n_longitudinal = static_cast<int>(st.range(1));
+  o.n_circumferential = static_cast<int>(st.range(2));
+  o.element_order = 1;
+  o.bulk_modulus = 1e7;
+  o.quadrature_degree = 1;
+  o.linear_solver = LinearSolver::kUmfPack;
+  beat(st, o, static_cast<int>(st.range(3)));
+}
 // The passive inflation plus the first 10 time steps of the beat (isovolumic contraction, the
 // hardest Newton solves), for sizes whose full beat takes too long to repeat: a beat is ~170 steps
 // at dt 5 ms, about half of them in the easier ejection and filling phases.
@@ -156,6 +179,15 @@ BENCHMARK(BM_Lv3dBeatBySize)
     ->Args({1, 6, 12, 1, 1})->Args({1, 9, 18, 1, 1})->Args({1, 12, 24, 1, 1})->Args({2, 12, 24, 1, 1})
     ->Args({1, 6, 12, 2, 1})->Args({1, 9, 18, 2, 1})->Args({1, 12, 24, 2, 1})->Args({2, 12, 24, 2, 1})
     ->Args({1, 6, 12, 1, 0})->Args({1, 9, 18, 1, 0})
+    ->Unit(benchmark::kSecond)
+    ->Iterations(1)
+    ->UseRealTime();
+
+BENCHMARK(BM_Lv3dBeatLinearBySize)
+    ->ArgsProduct({{1}, {6}, {12}, {1, 2}})
+    ->ArgsProduct({{2}, {12}, {24}, {1, 2}})
+    ->ArgsProduct({{3}, {18}, {36}, {1, 2}})
+    ->ArgsProduct({{4}, {24}, {48}, {1, 2}})
     ->Unit(benchmark::kSecond)
     ->Iterations(1)
     ->UseRealTime();

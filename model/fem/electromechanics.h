@@ -94,11 +94,17 @@ struct LeftVentricle3DOptions {
   // equal short and long radii give a truncated spherical shell (docs/models.md s.4.8,
   // "Consistency with the lumped sphere").
   EllipsoidGeometry geometry = EllipsoidGeometry::human();
-  // Mesh of the geometry, quadratic tetrahedra (P2-P1 Taylor-Hood).
+  // Mesh of the geometry: quadratic tetrahedra (element_order 2, P2-P1 Taylor-Hood, exactly
+  // incompressible) or linear ones (element_order 1: P1 displacement and P1 pressure with the finite
+  // bulk modulus below, the pressure a penalty on the volume change averaged over each vertex's
+  // patch, as the average-nodal-pressure tetrahedron of Bonet & Burton 1998, Commun Numer Meth Eng
+  // 14:437; docs/models.md s.4.8, "Linear tetrahedra").
+  int element_order = 2;
+  double bulk_modulus = 0.0;  // [Pa]; 0: incompressible (element_order 2 only)
   int n_transmural = 1;
   int n_longitudinal = 6;      // a multiple of 3 puts node rings on the AHA levels
   int n_circumferential = 12;  // a multiple of 6 (nodes on the 60-degree AHA bounds), >= 12
-  int quadrature_degree = 2;   // 2 (4 points) or 5 (14 points)
+  int quadrature_degree = 2;   // 2 (4 points) or 5 (14 points); 1 (one point) on linear tetrahedra
   double fibre_endo_deg = 60.0;   // helix angle at the endocardium [deg]
   double fibre_epi_deg = -60.0;   // at the epicardium [deg]
   ActiveStress active_stress = ActiveStress::kFibre;

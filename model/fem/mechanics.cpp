@@ -116,6 +116,24 @@ Mechanics::Mechanics(const Mesh& mesh, std::vector<Frame> frames, std::unique_pt
       ref_volume_ += rule[static_cast<size_t>(q)].weight * det;
     }
   }
+  if (opt_.quadrature_degree < 2 && opt_.bulk_modulus > 0 && !std::isinf(opt_.bulk_modulus)) {
+    // A one-point rule would make each element's pressure mass int N_k N_l dV of rank one, and
+    // pressure fields with zero element means would escape both the constraint and the
+    // penalty: the element pressure mass matrices are integrated exactly (degree 2) instead.
+    const auto& rule2 = tet_rule(2);
+    pressure_mass_.assign(ne, Eigen::Matrix4d::Zero());
+    Eigen::VectorXd N;
+    Eigen::MatrixXd dN;
+    for (size_t e = 0; e < ne; ++e) {
+      Eigen::MatrixXd X(npt_, 3);
+      for (int a = 0; a < npt_; ++a) X.row(a) = mesh_.nodes.row(mesh_.tets(static_cast<Eigen::Index>(e), a));
+      for (const auto& qp : rule2) {
+        tet_shape(mesh_.order, qp.xi, N, dN);
+        const Eigen::Vector4d Np(1 - qp.xi[0] - qp.xi[1] - qp.xi[2], qp.xi[0], qp.xi[1], qp.xi[2]);
+        pressure_mass_[e] += qp.weight * (X.transpose() * dN).determinant() * Np * Np.transpose();
+      }
+    }
+  }
   for (Eigen::Index f = 0; f < mesh_.faces.rows(); ++f)
     if (std::find(opt_.pressure_surfaces.begin(), opt_.pressure_surfaces.end(), mesh_.face_tag[static_cast<size_t>(f)]) !=
         opt_.pressure_surfaces.end())
@@ -300,7 +318,8 @@ bool Mechanics::assemble(const State& s, const Load& load, Eigen::VectorXd* resi
         const Eigen::MatrixXd gP = g * P.transpose();  // npt x 3: (a, i) = sum_I g(a,I) P(i,I)
         for (int a = 0; a < npt_; ++a)
           for (int i = 0; i < 3; ++i) Re[3 * a + i] += dV * gP(a, i);
-        for (int k = 0; k < 4; ++k) Re[3 * npt_ + k] -= dV * ((J - 1.0) + pq * inv_kappa) * Np[k];
+        const double pen = pressure_mass_.empty() ? pq * inv_kappa : 0.0;  // else below, exactly
+        for (int k = 0; k < 4; ++k) Re[3 * npt_ + k] -= dV * ((J - 1.0) + pen) * Np[k];
         if (!tangent) continue;
         // A(iI, jJ) = delta_ij S_IJ + F_iK D(KI, LJ) F_jL - p J (FiT_iI FiT_jJ - FiT_iJ FiT_jI).
         for (int i = 0; i < 3; ++i)
@@ -336,11 +355,16 @@ bool Mechanics::assemble(const State& s, const Load& load, Eigen::VectorXd* resi
               Ke(3 * npt_ + k, 3 * a + i) += v;
             }
         }
-        if (inv_kappa != 0.0)
+        if (inv_kappa != 0.0 && pressure_mass_.empty())
           for (int k = 0; k < 4; ++k)
             for (int l = 0; l < 4; ++l) Ke(3 * npt_ + k, 3 * npt_ + l) -= dV * inv_kappa * Np[k] * Np[l];
       }
       if (!ok_local) continue;
+      if (!pressure_mass_.empty()) {
+        const Eigen::Matrix4d& Mp = pressure_mass_[static_cast<size_t>(e)];
+        Re.tail<4>() -= inv_kappa * (Mp * pe);
+        if (tangent) Ke.bottomRightCorner<4, 4>() -= inv_kappa * Mp;
+      }
       if (residual) {
         // No two elements of a colour share a node: plain adds, no race, a fixed order.
         for (int a = 0; a < npt_; ++a)

@@ -42,7 +42,9 @@ struct MechanicsOptions {
   // unused) and the compressibility must come from the material's own volumetric energy (e.g.
   // HolzapfelOgdenParameters::kappa).
   bool displacement_only = false;
-  int quadrature_degree = 5;        // tetrahedron rule degree (2 or 5); 5 is exact for P2 mass terms
+  // Tetrahedron rule degree (1, 2 or 5); 5 is exact for P2 mass terms; 1 (one point) only suits
+  // linear tetrahedra, whose strain is constant (the pressure mass is then integrated exactly).
+  int quadrature_degree = 5;
   std::vector<int> pressure_surfaces = {kEndocardium};  // surface tags loaded by the pressure
   int load_steps = 10;              // uniform increments from the start to the target load
   int max_newton_iterations = 20;
@@ -154,6 +156,7 @@ class Mechanics {
   std::vector<double> grad_;  // n_tets * nqp * npt * 3
   std::vector<double> dv_;
   std::vector<Eigen::Vector4d> np_;  // per qp, P1 shape values
+  std::vector<Eigen::Matrix4d> pressure_mass_;  // per element, int N_k N_l dV (one-point rules only)
   std::vector<int> load_faces_;      // indices into mesh.faces
   SparseMatrix pattern_;
   std::vector<int> elem_pos_;  // value positions per element local (nloc x nloc)

@@ -81,7 +81,10 @@ TEST(Lv3dRegistration, BadNumericsAreReportedAtTheirKey) {
   EXPECT_EQ(error_of({{"mesh", "huge"}}), "mesh: bad choice");
   EXPECT_EQ(error_of({{"dtt", "1e-3"}}), "dtt: unknown key 'dtt'");
   EXPECT_EQ(error_of({{"quadrature_degree", "3"}}),
-            "quadrature_degree: simulator.numerics: quadrature_degree must be 2 or 5");
+            "quadrature_degree: simulator.numerics: quadrature_degree must be 1, 2 or 5");
+  EXPECT_EQ(error_of({{"quadrature_degree", "1"}}),
+            "quadrature_degree: simulator.numerics: quadrature_degree 1 needs element_order 1 (one point "
+            "under-integrates quadratic tetrahedra)");
   EXPECT_EQ(error_of({{"conduction_velocity", "-1"}}),
             "conduction_velocity: simulator.numerics: conduction_velocity = -1 m/s must lie in (0.01, 100) m/s");
   EXPECT_EQ(error_of({{"linear_tolerance", "0.5"}}),
@@ -89,6 +92,17 @@ TEST(Lv3dRegistration, BadNumericsAreReportedAtTheirKey) {
   EXPECT_EQ(read_lv3d_options(MapOptions({{"linear_solver", "sparselu"}, {"linear_tolerance", "1e-2"}})).linear_tolerance,
             1e-2);
   EXPECT_EQ(error_of({{"mesh", "medium"}, {"dt", "2e-3"}}), "");
+  EXPECT_EQ(error_of({{"element_order", "3"}}),
+            "element_order: simulator.numerics: element_order must be 1 (linear) or 2 (quadratic)");
+  EXPECT_EQ(error_of({{"element_order", "1"}}),
+            "bulk_modulus: simulator.numerics: bulk_modulus must be > 0 with element_order 1 (P1-P1 is not inf-sup "
+            "stable at exact incompressibility)");
+  EXPECT_EQ(error_of({{"bulk_modulus", "-1"}}),
+            "bulk_modulus: simulator.numerics: bulk_modulus must be finite and >= 0 [Pa]");
+  const LeftVentricle3DOptions linear =
+      read_lv3d_options(MapOptions({{"element_order", "1"}, {"bulk_modulus", "1e7"}}));
+  EXPECT_EQ(linear.element_order, 1);
+  EXPECT_EQ(linear.bulk_modulus, 1e7);
   LeftVentricle3DOptions too_coarse;
   too_coarse.n_circumferential = 6;  // inverts curved elements at the apex
   EXPECT_EQ(too_coarse.validate(), "n_circumferential must be a multiple of 6 in 12..120 (AHA 60-degree sectors)");
@@ -209,8 +223,7 @@ TEST(LeftVentricle3D, ActivationTimesComeFromTheChosenSource) {
 // Two beats from the unloaded mesh on the coarse preset (396 tetrahedra, dt 20 ms); the checks run
 // on the second beat (the first starts from the static inflation, without the atrial kick's
 // filling). About 20 s of CPU; the periodic run to 1e-3 is in the slow tier.
-TEST(LeftVentricle3D, CoarseBeatClosesWithPhasesInOrderAndIsovolumicVolumesHeld) {
-  LeftVentricle3DOptions o;
+void check_coarse_beat(LeftVentricle3DOptions o) {
   o.dt = 0.02;
   o.min_beats = 2;
   o.max_beats = 2;
@@ -281,6 +294,18 @@ TEST(LeftVentricle3D, CoarseBeatClosesWithPhasesInOrderAndIsovolumicVolumesHeld)
   EXPECT_NEAR(sum, V(k), 1e-9 * V(k));
 }
 
+TEST(LeftVentricle3D, CoarseBeatClosesWithPhasesInOrderAndIsovolumicVolumesHeld) { check_coarse_beat({}); }
+
+// The same on linear tetrahedra (element_order 1, P1-P1 with a 10 MPa bulk modulus, one quadrature
+// point; docs/models.md s.4.8 "Linear tetrahedra"): the coarse mesh's 396 tetrahedra with straight faces (a smaller
+// cavity), about 1 s of CPU.
+TEST(LeftVentricle3D, CoarseBeatOnLinearTetrahedraClosesWithPhasesInOrderAndIsovolumicVolumesHeld) {
+  LeftVentricle3DOptions o;
+  o.element_order = 1;
+  o.bulk_modulus = 1e7;
+  o.quadrature_degree = 1;
+  check_coarse_beat(o);
+}
+
 }  // namespace
 }  // namespace sigmaheart::model::fem
-

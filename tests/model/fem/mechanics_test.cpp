@@ -75,6 +75,35 @@ TEST(Mechanics, MooneyRivlinCompressibleTangentMatchesFiniteDifferences) {
   EXPECT_LT(tangent_error(mech, s, Load{2e3, 1e3}), 1e-6);
 }
 
+// Linear tetrahedra with one quadrature point and a finite bulk modulus (the lv-3d `element_order
+// 1` set-up): the tangent is consistent, and the pressure block at rest is exactly -M/kappa with M
+// the P1 mass matrix, as with the four-point rule (a one-point M would have rank one per element).
+TEST(Mechanics, LinearOnePointRuleKeepsTheExactPressureMass) {
+  const Mesh mesh = box_mesh(1e-3, 1e-3, 1e-3, 2, 1, 1, 1);
+  auto make = [&](int degree) {
+    MechanicsOptions o;
+    o.bulk_modulus = 5e4;
+    o.quadrature_degree = degree;
+    o.pressure_surfaces = {kBottom};
+    return Mechanics(mesh, uniform_fibres(mesh, Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY()),
+                     std::make_unique<MooneyRivlin>(MooneyRivlinParameters{1e3, 3e2}), o);
+  };
+  Mechanics one = make(1), four = make(2);
+  EXPECT_EQ(one.n_quadrature_points(), 1);
+  EXPECT_LT(tangent_error(one, random_state(one, 5e-5, 1e3, 3), Load{2e3, 1e3}), 1e-6);
+  SparseMatrix K1, K4;
+  Eigen::VectorXd R;
+  ASSERT_TRUE(one.assemble(one.initial_state(), Load{}, &R, &K1));
+  ASSERT_TRUE(four.assemble(four.initial_state(), Load{}, &R, &K4));
+  const int nu = 3 * mesh.n_nodes(), np = mesh.n_vertices;
+  const Eigen::MatrixXd P1 = Eigen::MatrixXd(K1).bottomRightCorner(np, np);
+  const Eigen::MatrixXd P4 = Eigen::MatrixXd(K4).bottomRightCorner(np, np);
+  EXPECT_LT((P1 - P4).norm(), 1e-12 * P4.norm());
+  // -M/kappa sums to -volume/kappa.
+  EXPECT_NEAR(P1.sum(), -1e-9 / 5e4, 1e-12 * 1e-9 / 5e4);
+  EXPECT_EQ(Eigen::MatrixXd(K1).rows(), nu + np);
+}
+
 TEST(Mechanics, FollowerPressureOnAClosedSurfaceHasNoNetForce) {
   // A cube loaded by pressure on all faces: the resultant of the traction vanishes in any
   // configuration (closed surface), so the residual sums to zero per direction.
