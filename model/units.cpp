@@ -10,6 +10,7 @@ std::optional<Conversion> to_si(const std::string& unit) {
       {"m^3", {1.0, "m^3"}},          {"L", {1e-3, "m^3"}},          {"l", {1e-3, "m^3"}},
       {"mL", {kMilliLitre, "m^3"}},   {"ml", {kMilliLitre, "m^3"}},  {"cm^3", {kMilliLitre, "m^3"}},
       {"Pa", {1.0, "Pa"}},            {"kPa", {1e3, "Pa"}},          {"mmHg", {kMmHg, "Pa"}},
+      {"MPa", {1e6, "Pa"}},  // bulk moduli (lv-3d numerics: bulk_modulus)
       {"s", {1.0, "s"}},              {"ms", {1e-3, "s"}},
       {"m^3/s", {1.0, "m^3/s"}},      {"mL/s", {kMilliLitre, "m^3/s"}},
       {"ml/s", {kMilliLitre, "m^3/s"}}, {"L/min", {1e-3 / 60.0, "m^3/s"}},

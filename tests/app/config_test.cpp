@@ -157,6 +157,16 @@ TEST(Config, Lv3dNumericsErrorsPointAtTheField) {
       "r_short_epi: 30 mm, r_long_epi: 30 mm, z_base: 22.5 mm}}";
   EXPECT_EQ(error_of([&] { parse_config(with_line(lv, 4, shell_numerics), "x.yaml", {}, blackbox::cli_models()); }),
             "");
+  // Linear tetrahedra as the docs write them (docs/models.md s.4.8), and without their bulk modulus.
+  EXPECT_EQ(error_of([&] {
+              parse_config(with_line(lv, 4, "  numerics: {element_order: 1, bulk_modulus: 10 MPa, quadrature_degree: 1}"),
+                           "x.yaml", {}, blackbox::cli_models());
+            }),
+            "");
+  EXPECT_EQ(error_of([&] {
+              parse_config(with_line(lv, 4, "  numerics: {element_order: 1}"), "x.yaml", {}, blackbox::cli_models());
+            }).rfind("x.yaml:4:", 0),
+            0u);
 }
 
 // A preset's numerics (lv-3d `lbbb-heart-failure`: LBBB activation, dilated geometry) reach the

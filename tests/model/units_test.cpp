@@ -10,6 +10,7 @@ TEST(Units, ConvertsClinicalUnitsToSi) {
   EXPECT_DOUBLE_EQ(convert(150.0, "mL", "m^3"), 150e-6);
   EXPECT_DOUBLE_EQ(convert(1.0, "L", "mL"), 1000.0);
   EXPECT_NEAR(convert(16.0, "kPa", "mmHg"), 120.0096, 1e-3);
+  EXPECT_DOUBLE_EQ(convert(10.0, "MPa", "Pa"), 1e7);
   EXPECT_DOUBLE_EQ(convert(850.0, "ms", "s"), 0.85);
   EXPECT_DOUBLE_EQ(convert(60.0, "%", "1"), 0.6);
   EXPECT_NEAR(convert(5.0, "L/min", "mL/s"), 83.3333333, 1e-6);
