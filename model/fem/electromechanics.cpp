@@ -60,6 +60,14 @@ void BcsPassive::stress(const Eigen::Matrix3d& E, const Frame&, Eigen::Matrix3d&
   D = 4.0 * (w1 * f.d2f1 + p_.c2 * f.d2f2 + g2 * tensor_outer(f.df1, f.df1));
 }
 
+void BcsPassive::stress_only(const Eigen::Matrix3d& E, const Frame&, Eigen::Matrix3d& S) const {
+  const IsochoricInvariants f = isochoric_invariants(E, false);
+  const double Q = f.f1 - 3.0;
+  const double ex = p_.c_exp > 0 ? std::exp(p_.b_exp * Q * Q) : 0.0;
+  const double w1 = p_.c1 + 2.0 * p_.b_exp * p_.c_exp * Q * ex;  // c1 + g'(f1)
+  S = 2.0 * (w1 * f.df1 + p_.c2 * f.df2);
+}
+
 // ---------------------------------------------------------------------------------------------
 // Options.
 std::string LeftVentricle3DOptions::validate() const {
@@ -265,7 +273,7 @@ struct LeftVentricle3D::Impl {
   BcsPassiveParameters mech_passive{-1, -1, -1, -1};
   BaseCondition base = BaseCondition::kSliding;
   LeftVentricle3DOptions options;
-  std::unique_ptr<SparseSolver> lu;  // SparseLU with the pattern analysed once (step())
+  std::unique_ptr<SparseSolver> lu;  // the direct solver, its pattern analysed once (step())
 
   Mechanics& mechanics(const BcsPassiveParameters& p) {
     if (!mech || p.c1 != mech_passive.c1 || p.c2 != mech_passive.c2 || p.c_exp != mech_passive.c_exp ||
@@ -395,6 +403,7 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
   std::vector<bcs::ActiveState> trial(static_cast<size_t>(n));
   std::atomic<bool> local_failed{false};
   const double eta_h = m.eta / h;
+  bool want_tangent = true;  // of the current evaluation (D is not read in residual-only assemblies)
   const StressHook hook = [&](int e, int q, const Eigen::Matrix3d& E, const Frame& R, Eigen::Matrix3d& S, Matrix9d& D) {
     const size_t i = static_cast<size_t>(e * nqp + q);
     if (first_evaluation) En[i] = E;
@@ -406,6 +415,7 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
     if (!bcs::condense_step(ap, xo.act[i], eff, acts[i], h, cs)) local_failed.store(true, std::memory_order_relaxed);
     trial[i] = cs.state;
     S += cs.stress * ff + eta_h * (E - En[i]);
+    if (!want_tangent) return;
     const Eigen::Map<const Eigen::Matrix<double, 9, 1>> vff(ff.data());  // symmetric: any vec order
     D.noalias() += cs.tangent * (vff * vff.transpose());
     D += eta_h * symmetric_identity();
@@ -435,6 +445,7 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
   auto evaluate = [&](Eval& ev, bool with_tangent) -> bool {
     local_failed = false;
     ev.has_K = with_tangent;
+    want_tangent = with_tangent;
     if (!mc.assemble(ev.ms, Load{ev.Pv, 0.0}, &ev.R, with_tangent ? &ev.K : nullptr, hook)) return false;
     if (local_failed) return false;
     ev.act = trial;
@@ -478,16 +489,16 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
   // factorisation is redone at every step's first iteration, so a step is a pure function of
   // its inputs (replay lands on the same bits).
   const double refactor_ratio = g.mesh.order == 1 ? 0.1 : 0.01;
-  // Eigen's SparseLU analyses the pattern only (the same for every step), so one analysis serves
-  // the object's life and every factorisation is a function of the tangent alone. UMFPACK's
-  // symbolic step also reads values, so it gets a fresh solver per step; its BLAS kernels round
-  // differently with the alignment of its workspace, so its runs in different threads differ by
-  // about 1e-6 relative: SparseLU is the default for bitwise reproducible runs. The iterative
-  // solver (kAmg, solver.h) also gets a fresh object per step; its set-up and GMRES depend on the
-  // tangent alone (hypre serial, no OpenMP), so it gives the same bits in every thread.
+  // The direct solvers analyse the pattern only (the same for every step; solver.h), so one
+  // analysis serves the object's life and every factorisation is a function of the tangent alone.
+  // UMFPACK's BLAS kernels round differently with the alignment of its workspace, so its runs in
+  // different threads differ by about 1e-6 relative: SparseLU is the default for bitwise
+  // reproducible runs. The iterative solver (kAmg, solver.h) gets a fresh object per step; its
+  // set-up and GMRES depend on the tangent alone (hypre serial, no OpenMP), so it gives the same
+  // bits in every thread.
   std::unique_ptr<SparseSolver> fresh;
-  if (options.linear_solver == LinearSolver::kSparseLU) {
-    if (!lu) lu = std::make_unique<SparseSolver>(LinearSolver::kSparseLU);
+  if (options.linear_solver != LinearSolver::kAmg) {
+    if (!lu) lu = std::make_unique<SparseSolver>(options.linear_solver);
   } else {
     IterativeOptions io;
     io.relative_tolerance = options.linear_tolerance;
@@ -497,6 +508,7 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
   SparseSolver& solver = fresh ? *fresh : *lu;
   bool factors_fresh = false;  // the factors belong to the current point
   bool have_factors = false;
+  Eigen::VectorXd w1;  // K^-1 b at the point of the factorisation
   const double tol = options.newton_tolerance;
   int iterations = 0;
   while (iterations <= options.newton_max_iterations) {
@@ -519,10 +531,15 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
       have_factors = factors_fresh = true;
     }
     // Bordered system [K b 0; g^T c11 c12; 0 c21 c22] (dx, dPv, dPar) = -(R, rc, rar), by the Schur
-    // complement on K's factors: dx = w0 - w1 dPv.
+    // complement on K's factors: dx = w0 - w1 dPv. The chord iteration freezes the column b with K
+    // (w1 = K^-1 b solved once per factorisation: one triangular solve pair per iteration instead
+    // of two); the cavity and Windkessel rows stay current, so the valves' switching is followed.
+    if (factors_fresh) {
+      w1 = solver.solve(cur.b);
+      if (!w1.allFinite()) return -1;
+    }
     const Eigen::VectorXd w0 = solver.solve(-cur.R);
-    const Eigen::VectorXd w1 = solver.solve(cur.b);
-    if (!w0.allFinite() || !w1.allFinite()) return -1;
+    if (!w0.allFinite()) return -1;
     Eigen::Matrix2d A;
     A << cur.c11 - cur.gV.dot(w1), cur.c12, cur.c21, cur.c22;
     const Eigen::Vector2d rhs(-cur.rc - cur.gV.dot(w0), -cur.rar);

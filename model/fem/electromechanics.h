@@ -56,6 +56,7 @@ class BcsPassive final : public Material {
   explicit BcsPassive(const BcsPassiveParameters& p);
   double energy(const Eigen::Matrix3d& E, const Frame& R) const override;
   void stress(const Eigen::Matrix3d& E, const Frame& R, Eigen::Matrix3d& S, Matrix9d& D) const override;
+  void stress_only(const Eigen::Matrix3d& E, const Frame& R, Eigen::Matrix3d& S) const override;
   std::unique_ptr<Material> clone() const override { return std::make_unique<BcsPassive>(p_); }
   std::string name() const override { return "bcs-passive"; }
 

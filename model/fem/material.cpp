@@ -47,7 +47,7 @@ Matrix9d tensor_sym_product(const Eigen::Matrix3d& A) {
   return M;
 }
 
-IsochoricInvariants isochoric_invariants(const Eigen::Matrix3d& E) {
+IsochoricInvariants isochoric_invariants(const Eigen::Matrix3d& E, bool second) {
   const Eigen::Matrix3d I = Eigen::Matrix3d::Identity();
   const Eigen::Matrix3d C = I + 2.0 * E;
   const Eigen::Matrix3d Ci = C.inverse();
@@ -59,6 +59,7 @@ IsochoricInvariants isochoric_invariants(const Eigen::Matrix3d& E) {
   f.f2 = b * I2;
   f.df1 = a * (I - I1 / 3.0 * Ci);
   f.df2 = b * (dg - 2.0 / 3.0 * I2 * Ci);
+  if (!second) return f;
   const Matrix9d ICi = tensor_sym_product(Ci);
   f.d2f1 = -a / 3.0 * (tensor_outer(I, Ci) + tensor_outer(Ci, I) - I1 / 3.0 * tensor_outer(Ci, Ci) - I1 * ICi);
   const Matrix9d d2g = tensor_outer(I, I) - tensor_sym_product(I);
@@ -161,6 +162,11 @@ void MooneyRivlin::stress(const Eigen::Matrix3d& E, const Frame&, Eigen::Matrix3
   const IsochoricInvariants f = isochoric_invariants(E);
   S = 2.0 * (p_.c1 * f.df1 + p_.c2 * f.df2);
   D = 4.0 * (p_.c1 * f.d2f1 + p_.c2 * f.d2f2);
+}
+
+void MooneyRivlin::stress_only(const Eigen::Matrix3d& E, const Frame&, Eigen::Matrix3d& S) const {
+  const IsochoricInvariants f = isochoric_invariants(E, false);
+  S = 2.0 * (p_.c1 * f.df1 + p_.c2 * f.df2);
 }
 
 std::string HolzapfelOgdenParameters::validate() const {

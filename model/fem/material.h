@@ -28,6 +28,12 @@ class Material {
   virtual double energy(const Eigen::Matrix3d& E, const Frame& R) const = 0;
   // Second Piola-Kirchhoff stress S = dW/dE and tangent D = d2W/dE2 (9x9, see above).
   virtual void stress(const Eigen::Matrix3d& E, const Frame& R, Eigen::Matrix3d& S, Matrix9d& D) const = 0;
+  // S alone, for residual-only assemblies (the line search and chord iterations of a Newton solve);
+  // the same bits as stress()'s S. The default evaluates the tangent too.
+  virtual void stress_only(const Eigen::Matrix3d& E, const Frame& R, Eigen::Matrix3d& S) const {
+    Matrix9d D;
+    stress(E, R, S, D);
+  }
   virtual std::unique_ptr<Material> clone() const = 0;
   virtual std::string name() const = 0;
 };
@@ -69,13 +75,14 @@ Matrix9d tensor_outer(const Eigen::Matrix3d& A, const Eigen::Matrix3d& B);  // A
 Matrix9d tensor_sym_product(const Eigen::Matrix3d& A);  // (A_IK A_JL + A_IL A_JK) / 2
 
 // The isochoric invariants of C = I + 2E, f1 = I3^-1/3 I1 and f2 = I3^-2/3 I2, with their
-// derivatives with respect to C: df (3x3) and d2f (9x9, on the vec above).
+// derivatives with respect to C: df (3x3) and d2f (9x9, on the vec above; left unset when
+// `second` is false).
 struct IsochoricInvariants {
   double f1 = 0.0, f2 = 0.0;
   Eigen::Matrix3d df1, df2;
   Matrix9d d2f1, d2f2;
 };
-IsochoricInvariants isochoric_invariants(const Eigen::Matrix3d& E);
+IsochoricInvariants isochoric_invariants(const Eigen::Matrix3d& E, bool second = true);
 
 // Mooney-Rivlin on the isochoric invariants (the thesis law, docs/models.md s.4):
 //   W = c1 (J^-2/3 I1 - 3) + c2 (J^-4/3 I2 - 3); the volumetric penalty kappa/2 (J - 1)^2 is the
@@ -91,6 +98,7 @@ class MooneyRivlin final : public Material {
   explicit MooneyRivlin(const MooneyRivlinParameters& p);
   double energy(const Eigen::Matrix3d& E, const Frame& R) const override;
   void stress(const Eigen::Matrix3d& E, const Frame& R, Eigen::Matrix3d& S, Matrix9d& D) const override;
+  void stress_only(const Eigen::Matrix3d& E, const Frame& R, Eigen::Matrix3d& S) const override;
   std::unique_ptr<Material> clone() const override { return std::make_unique<MooneyRivlin>(p_); }
   std::string name() const override { return "mooney-rivlin"; }
 

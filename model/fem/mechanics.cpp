@@ -307,7 +307,12 @@ bool Mechanics::assemble(const State& s, const Load& load, Eigen::VectorXd* resi
           break;
         }
         const Eigen::Matrix3d E = 0.5 * (F.transpose() * F - I3);
-        material_->stress(E, R, S, D);
+        if (tangent) {
+          material_->stress(E, R, S, D);
+        } else {
+          material_->stress_only(E, R, S);
+          if (hook) D.setZero();
+        }
         if (hook) hook(static_cast<int>(e), q, E, R, S, D);
         if (ta != 0.0) S += ta * R.col(0) * R.col(0).transpose();
         const Eigen::Matrix3d FiT = F.inverse().transpose();

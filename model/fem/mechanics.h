@@ -90,7 +90,8 @@ struct Summary {
 // active and viscous stresses of a time step, model/fem/electromechanics.h). Arguments: element,
 // quadrature point (element-major index element * n_qp + qp), Green-Lagrange strain E, local frame
 // R, and S, D to add to. Called concurrently for distinct (element, qp) pairs, each pair once per
-// assembly: it may write per-point data of its own without locks.
+// assembly: it may write per-point data of its own without locks. In a residual-only assembly
+// (tangent == nullptr) D is zero on entry and not read afterwards: a hook may skip it.
 using StressHook = std::function<void(int element, int qp, const Eigen::Matrix3d& E, const Frame& R,
                                       Eigen::Matrix3d& S, Matrix9d& D)>;
 

@@ -2,7 +2,7 @@
 
 #include <Eigen/SparseLU>
 #ifdef SIGMAHEART_FEM_HAVE_UMFPACK
-#include <Eigen/UmfPackSupport>
+#include <umfpack.h>
 #endif
 #ifdef SIGMAHEART_FEM_HAVE_HYPRE
 // MPI's C interface only (Open MPI and MPICH otherwise pull in their C++ bindings).
@@ -66,6 +66,94 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+#ifdef SIGMAHEART_FEM_HAVE_UMFPACK
+// UMFPACK (Davis 2004, ACM Trans. Math. Softw. 30:196) through its C interface. The symbolic
+// analysis (fill-reducing ordering, frontal structure) is given the pattern only (Ax = NULL: every
+// entry counts as nonzero), so it is a function of the pattern alone and one analysis serves every
+// matrix of that pattern, as Eigen's SparseLU's does; Eigen's UmfPackLU passes the values and so
+// tied each analysis to one matrix. The numeric factorisation still pivots on the values.
+class Umfpack {
+ public:
+  Umfpack() {
+    umfpack_di_defaults(control_);
+    // The pattern is structurally symmetric: AMD/METIS on A + A^T and a preference for diagonal pivots.
+    control_[UMFPACK_STRATEGY] = UMFPACK_STRATEGY_SYMMETRIC;
+    // Nested dissection (METIS) fills much less than AMD on 3D quadratic meshes.
+    control_[UMFPACK_ORDERING] = UMFPACK_ORDERING_METIS;
+    // No iterative refinement (UMFPACK's default is up to 2 steps, each a residual and another pair
+    // of triangular solves): the callers are Newton iterations whose own residual test decides, and
+    // the refinement was the largest single cost of a heartbeat (docs/models.md s.4.8, "Cost").
+    control_[UMFPACK_IRSTEP] = 0;
+  }
+  ~Umfpack() {
+    if (numeric_) umfpack_di_free_numeric(&numeric_);
+    if (symbolic_) umfpack_di_free_symbolic(&symbolic_);
+  }
+  Umfpack(const Umfpack&) = delete;
+  Umfpack& operator=(const Umfpack&) = delete;
+
+  // Numeric factorisation of A; the symbolic analysis on A's pattern the first time, and again only
+  // if the pattern changes.
+  bool factorize(const SparseMatrixInt& A) {
+    if (A.rows() != A.cols() || !A.isCompressed()) return false;
+    const int n = static_cast<int>(A.rows());
+    if (numeric_) umfpack_di_free_numeric(&numeric_);
+    if (!same_pattern(A)) {
+      if (symbolic_) umfpack_di_free_symbolic(&symbolic_);
+      ap_.assign(A.outerIndexPtr(), A.outerIndexPtr() + n + 1);
+      ai_.assign(A.innerIndexPtr(), A.innerIndexPtr() + A.nonZeros());
+      if (umfpack_di_symbolic(n, n, ap_.data(), ai_.data(), nullptr, &symbolic_, control_, info_) != UMFPACK_OK) {
+        symbolic_ = nullptr;
+        ap_.clear();
+        return false;
+      }
+      wi_.resize(static_cast<size_t>(n));
+      w_.resize(static_cast<size_t>(n));
+    }
+    ax_.assign(A.valuePtr(), A.valuePtr() + A.nonZeros());
+    const int st = umfpack_di_numeric(ap_.data(), ai_.data(), ax_.data(), symbolic_, &numeric_, control_, info_);
+    if (st != UMFPACK_OK) {  // includes UMFPACK_WARNING_singular_matrix
+      if (numeric_) umfpack_di_free_numeric(&numeric_);
+      numeric_ = nullptr;
+      return false;
+    }
+    return true;
+  }
+
+  Eigen::VectorXd solve(const Eigen::VectorXd& b) {
+    Eigen::VectorXd x(b.size());
+    if (!numeric_ || b.size() + 1 != static_cast<Eigen::Index>(ap_.size()) ||
+        umfpack_di_wsolve(UMFPACK_A, ap_.data(), ai_.data(), ax_.data(), x.data(), b.data(), numeric_, control_,
+                          info_, wi_.data(), w_.data()) != UMFPACK_OK)
+      x.setConstant(std::numeric_limits<double>::quiet_NaN());
+    return x;
+  }
+
+  long long factor_nonzeros() const {
+    if (!numeric_) return 0;
+    int lnz = 0, unz = 0, n_row = 0, n_col = 0, nz_udiag = 0;
+    umfpack_di_get_lunz(&lnz, &unz, &n_row, &n_col, &nz_udiag, numeric_);
+    return static_cast<long long>(lnz) + unz;
+  }
+
+ private:
+  bool same_pattern(const SparseMatrixInt& A) const {
+    if (!symbolic_ || ap_.size() != static_cast<size_t>(A.rows() + 1) || ai_.size() != static_cast<size_t>(A.nonZeros()))
+      return false;
+    return std::equal(ap_.begin(), ap_.end(), A.outerIndexPtr()) && std::equal(ai_.begin(), ai_.end(), A.innerIndexPtr());
+  }
+
+  double control_[UMFPACK_CONTROL];
+  double info_[UMFPACK_INFO];
+  void* symbolic_ = nullptr;
+  void* numeric_ = nullptr;
+  std::vector<int> ap_, ai_;  // the analysed pattern
+  std::vector<double> ax_;    // the factorised values (wsolve reads the matrix only for refinement)
+  std::vector<int> wi_;       // wsolve workspaces: no allocation per solve
+  std::vector<double> w_;
+};
+#endif
 
 #ifdef SIGMAHEART_FEM_HAVE_HYPRE
 // hypre (Debian's libhypre is built with MPI) runs on MPI_COMM_SELF: every solver is serial and
@@ -219,7 +307,7 @@ struct SparseSolver::Impl {
   bool analysed = false;
   Eigen::SparseLU<SparseMatrixInt, Eigen::COLAMDOrdering<int>> lu;
 #ifdef SIGMAHEART_FEM_HAVE_UMFPACK
-  Eigen::UmfPackLU<SparseMatrixInt> umf;
+  Umfpack umf;
 #endif
 #ifdef SIGMAHEART_FEM_HAVE_HYPRE
   // The iterative solver: K = [A B^T; B C] with A the displacement block (n_u rows), preconditioned
@@ -260,14 +348,6 @@ SparseSolver::SparseSolver(LinearSolver kind, IterativeOptions iterative)
   kind_ = LinearSolver::kSparseLU;
 #else
   if (kind_ == LinearSolver::kAuto) kind_ = LinearSolver::kUmfPack;
-  // The pattern is structurally symmetric: AMD on A + A^T and a preference for diagonal pivots.
-  impl_->umf.umfpackControl()(UMFPACK_STRATEGY) = UMFPACK_STRATEGY_SYMMETRIC;
-  // Nested dissection (METIS) fills much less than AMD on 3D quadratic meshes.
-  impl_->umf.umfpackControl()(UMFPACK_ORDERING) = UMFPACK_ORDERING_METIS;
-  // No iterative refinement (UMFPACK's default is up to 2 steps, each a residual and another pair of
-  // triangular solves): the callers are Newton iterations whose own residual test decides, and the
-  // refinement was the largest single cost of a heartbeat (docs/models.md s.4.8, "Cost").
-  impl_->umf.umfpackControl()(UMFPACK_IRSTEP) = 0;
 #endif
 }
 
@@ -350,14 +430,7 @@ bool SparseSolver::factorize(const SparseMatrixInt& A) {
   }
 #endif
 #ifdef SIGMAHEART_FEM_HAVE_UMFPACK
-  if (kind_ == LinearSolver::kUmfPack) {
-    if (!impl_->analysed) {
-      impl_->umf.analyzePattern(A);
-      impl_->analysed = true;
-    }
-    impl_->umf.factorize(A);
-    return impl_->umf.info() == Eigen::Success;
-  }
+  if (kind_ == LinearSolver::kUmfPack) return impl_->umf.factorize(A);
 #endif
   if (!impl_->analysed) {
     impl_->lu.analyzePattern(A);
@@ -460,8 +533,7 @@ long long SparseSolver::factor_nonzeros() {
   if (kind_ == LinearSolver::kAmg) return impl_->amg ? impl_->amg->operator_nonzeros() : 0;
 #endif
 #ifdef SIGMAHEART_FEM_HAVE_UMFPACK
-  if (kind_ == LinearSolver::kUmfPack)
-    return static_cast<long long>(impl_->umf.matrixL().nonZeros() + impl_->umf.matrixU().nonZeros());
+  if (kind_ == LinearSolver::kUmfPack) return impl_->umf.factor_nonzeros();
 #endif
   return static_cast<long long>(impl_->lu.nnzL() + impl_->lu.nnzU());
 }

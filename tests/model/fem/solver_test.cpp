@@ -14,6 +14,7 @@
 
 #include <map>
 #include <string>
+#include <vector>
 
 namespace sigmaheart::model::fem {
 namespace {
@@ -44,6 +45,47 @@ struct LandSystem {
 };
 
 double relative_difference(const Eigen::VectorXd& a, const Eigen::VectorXd& b) { return (a - b).norm() / b.norm(); }
+
+// UMFPACK's symbolic analysis is made from the pattern alone (solver.cpp), so one solver object
+// factorises every matrix of that pattern: a second tangent of the same pattern (here the first
+// scaled and its diagonal shifted) is solved as accurately as the first, a matrix of another
+// pattern is analysed afresh, and a singular one is refused.
+TEST(SparseSolver, UmfpackAnalysisOfThePatternServesEveryMatrixOfIt) {
+  if (!linear_solver_available(LinearSolver::kUmfPack)) GTEST_SKIP() << "built without UMFPACK";
+  const LandSystem sys;
+  SparseSolver umf(LinearSolver::kUmfPack);
+  auto relative_residual = [](const SparseMatrix& A, const Eigen::VectorXd& x, const Eigen::VectorXd& b) {
+    return (A * x - b).norm() / b.norm();
+  };
+  ASSERT_TRUE(umf.factorize(sys.K));
+  EXPECT_LT(relative_residual(sys.K, umf.solve(-sys.R), -sys.R), 1e-9);
+  EXPECT_GT(umf.factor_nonzeros(), sys.K.nonZeros());
+
+  SparseMatrix K2 = 2.0 * sys.K;
+  for (int k = 0; k < K2.outerSize(); ++k)
+    for (SparseMatrix::InnerIterator it(K2, k); it; ++it)
+      if (it.row() == it.col() && it.row() < sys.nu) it.valueRef() *= 1.5;
+  ASSERT_TRUE(umf.factorize(K2));
+  EXPECT_LT(relative_residual(K2, umf.solve(-sys.R), -sys.R), 1e-9);
+
+  const int n = 50;
+  SparseMatrix T(n, n);
+  std::vector<Eigen::Triplet<double>> t;
+  for (int i = 0; i < n; ++i) {
+    t.emplace_back(i, i, 4.0);
+    if (i > 0) t.emplace_back(i, i - 1, -1.0);
+    if (i + 1 < n) t.emplace_back(i, i + 1, -2.0);
+  }
+  T.setFromTriplets(t.begin(), t.end());
+  ASSERT_TRUE(umf.factorize(T));
+  const Eigen::VectorXd b = Eigen::VectorXd::LinSpaced(n, 1.0, 2.0);
+  EXPECT_LT(relative_residual(T, umf.solve(b), b), 1e-14);
+
+  SparseMatrix Z = T;
+  Z.coeffs().setZero();
+  EXPECT_FALSE(umf.factorize(Z));
+  EXPECT_FALSE(umf.solve(b).allFinite());
+}
 
 TEST(SparseSolver, AmgSolvesAnIndefiniteLandTangentToTheDirectSolution) {
   if (!linear_solver_available(LinearSolver::kAmg)) GTEST_SKIP() << "built without hypre";

@@ -51,6 +51,9 @@ struct ThinShellCase {
   BaseCondition base = BaseCondition::kSliding;
   double dt = 5e-3;  // [s], both models
   int beats = 1;     // the last one is compared; 0: the passive inflation only (V3(0), Vl(0))
+  // SparseLU (the default) for the fast test's bits; UMFPACK for the thin walls' larger meshes, whose
+  // SparseLU factorisation grows far faster (docs/models.md s.4.8, "Cost").
+  LinearSolver linear_solver = LinearSolver::kSparseLU;
 };
 
 struct ThinShellComparison {
@@ -104,6 +107,7 @@ inline ThinShellComparison compare_thin_shell(const ThinShellCase& c) {
   o.active_stress = ActiveStress::kTangentIsotropic;
   o.activation = ActivationSource::kSynchronous;
   o.dt = c.dt;
+  o.linear_solver = c.linear_solver;
   LeftVentricle3D lv(o);
 
   // The equivalent sphere: equal unloaded cavity and wall volumes.
