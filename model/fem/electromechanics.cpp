@@ -509,6 +509,14 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
   bool factors_fresh = false;  // the factors belong to the current point
   bool have_factors = false;
   Eigen::VectorXd w1;  // K^-1 b at the point of the factorisation
+  // Broyden's method on the chord directions (below): the full steps taken since the last
+  // factorisation, and the scaled inner product of the unknowns (u / 1 mm, pressures / 1 kPa).
+  std::vector<Eigen::VectorXd> steps;
+  std::vector<double> steps_n2;
+  Eigen::VectorXd weight(nx + 2);
+  weight.head(nu_).setConstant(1.0 / (kLref * kLref));
+  weight.tail(np_ + 2).setConstant(1.0 / (kPref * kPref));
+  auto wdot = [&](const Eigen::VectorXd& a, const Eigen::VectorXd& b) { return a.cwiseProduct(weight).dot(b); };
   const double tol = options.newton_tolerance;
   int iterations = 0;
   while (iterations <= options.newton_max_iterations) {
@@ -529,6 +537,8 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
       if (!cur.has_K && !evaluate(cur, true)) return -1;
       if (!solver.factorize(cur.K)) return -1;
       have_factors = factors_fresh = true;
+      steps.clear();
+      steps_n2.clear();
     }
     // Bordered system [K b 0; g^T c11 c12; 0 c21 c22] (dx, dPv, dPar) = -(R, rc, rar), by the Schur
     // complement on K's factors: dx = w0 - w1 dPv. The chord iteration freezes the column b with K
@@ -545,7 +555,28 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
     const Eigen::Vector2d rhs(-cur.rc - cur.gV.dot(w0), -cur.rar);
     const Eigen::Vector2d dP = A.fullPivLu().solve(rhs);
     if (!dP.allFinite()) return -1;
-    const Eigen::VectorXd dx = w0 - w1 * dP(0);
+    // d = (du, dp, dP_v, dP_ar): the Newton direction with fresh factors, the chord direction
+    // -J0^-1 F(x) with stale ones.
+    Eigen::VectorXd d(nx + 2);
+    d << w0 - w1 * dP(0), dP;
+    // With stale factors, Broyden's ("good") method on G(x) = J0^-1 F(x), whose Jacobian the chord
+    // takes to be the identity: the inverse of each rank-one update is applied to the chord
+    // direction through the steps taken since the factorisation (Kelley 1995, Iterative Methods
+    // for Linear and Nonlinear Equations, SIAM, s.7.3, alg. brsol; Sherman-Morrison form), in
+    // the scaled inner product above. The chord's linear contraction becomes superlinear: fewer
+    // residual assemblies and solves per step (docs/models.md s.4.8, "Cost"). A denominator near
+    // zero drops the history (plain chord direction).
+    if (!factors_fresh && options.broyden && !steps.empty()) {
+      Eigen::VectorXd z = d;
+      for (size_t j = 0; j + 1 < steps.size(); ++j) z += steps[j + 1] * (wdot(steps[j], z) / steps_n2[j]);
+      const double den = 1.0 - wdot(steps.back(), z) / steps_n2.back();
+      if (std::abs(den) > 1e-2 && z.allFinite()) {
+        d = z / den;
+      } else {
+        steps.clear();
+        steps_n2.clear();
+      }
+    }
     // Backtracking on the scaled residual (Dennis & Schnabel 1996, alg. A6.3.1); with stale factors
     // a failed full step refactorises instead.
     bool accepted = false;
@@ -553,10 +584,10 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
     const int max_halvings = factors_fresh ? 10 : 1;
     for (int ls = 0; ls < max_halvings && !accepted; ++ls, lambda *= 0.5) {
       Eval cand;
-      cand.ms.u = cur.ms.u + lambda * dx.head(nu_);
-      cand.ms.p = cur.ms.p + lambda * dx.tail(np_);
-      cand.Pv = cur.Pv + lambda * dP(0);
-      cand.Par = cur.Par + lambda * dP(1);
+      cand.ms.u = cur.ms.u + lambda * d.head(nu_);
+      cand.ms.p = cur.ms.p + lambda * d.segment(nu_, np_);
+      cand.Pv = cur.Pv + lambda * d(nx);
+      cand.Par = cur.Par + lambda * d(nx + 1);
       if (!evaluate(cand, false)) continue;
       if (cand.merit <= (1.0 - 1e-4 * lambda) * cur.merit) {
         accepted = true;
@@ -565,9 +596,9 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
       } else if (factors_fresh) {
         // Relative step test (Dennis & Schnabel 1996, s.7.2): an update lost in the rounding of
         // the unknowns ends the solve even when rounding keeps the residual above tol.
-        const double step = std::max({lambda * dx.head(nu_).cwiseAbs().maxCoeff() / kLref,
-                                      lambda * dx.tail(np_).cwiseAbs().maxCoeff() / kPref,
-                                      lambda * std::abs(dP(0)) / kPref, lambda * std::abs(dP(1)) / kPref});
+        const double step = std::max({lambda * d.head(nu_).cwiseAbs().maxCoeff() / kLref,
+                                      lambda * d.segment(nu_, np_).cwiseAbs().maxCoeff() / kPref,
+                                      lambda * std::abs(d(nx)) / kPref, lambda * std::abs(d(nx + 1)) / kPref});
         if (step <= 1e-3 * tol && cand.scaled_max <= 1e3 * tol) {
           cand.scaled_max = 0.0;  // converged by the step test
           accepted = true;
@@ -576,6 +607,14 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
       if (accepted) {
         cur = std::move(cand);
         factors_fresh = false;
+        // Broyden's recursion holds for full steps only: a shortened one starts a new history.
+        if (lambda == 1.0) {
+          steps.push_back(d);
+          steps_n2.push_back(wdot(d, d));
+        } else {
+          steps.clear();
+          steps_n2.clear();
+        }
       }
     }
     if (!accepted) {

@@ -120,6 +120,9 @@ struct LeftVentricle3DOptions {
   int output_every = 1;        // keep every k-th step in the returned trajectory
   double newton_tolerance = 1e-8;    // on the scaled residual rows (see electromechanics.cpp)
   int newton_max_iterations = 20;
+  // Broyden updates of the chord iterations between factorisations (electromechanics.cpp, step;
+  // docs/models.md s.4.8): false gives the plain chord iteration.
+  bool broyden = true;
 
   ActivationSource activation = ActivationSource::kSynchronous;
   double conduction_velocity = 0.6;  // [m/s] for kApexDistance
