@@ -96,7 +96,12 @@ class Umfpack {
   // Numeric factorisation of A; the symbolic analysis on A's pattern the first time, and again only
   // if the pattern changes.
   bool factorize(const SparseMatrixInt& A) {
-    if (A.rows() != A.cols() || !A.isCompressed()) return false;
+    if (A.rows() != A.cols()) return false;
+    if (!A.isCompressed()) {
+      SparseMatrixInt compressed = A;
+      compressed.makeCompressed();
+      return factorize(compressed);
+    }
     const int n = static_cast<int>(A.rows());
     if (numeric_) umfpack_di_free_numeric(&numeric_);
     if (!same_pattern(A)) {

@@ -49,7 +49,7 @@ double relative_difference(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
 // UMFPACK's symbolic analysis is made from the pattern alone (solver.cpp), so one solver object
 // factorises every matrix of that pattern: a second tangent of the same pattern (here the first
 // scaled and its diagonal shifted) is solved as accurately as the first, a matrix of another
-// pattern is analysed afresh, and a singular one is refused.
+// pattern is analysed afresh (also in uncompressed storage), and a singular one is refused.
 TEST(SparseSolver, UmfpackAnalysisOfThePatternServesEveryMatrixOfIt) {
   if (!linear_solver_available(LinearSolver::kUmfPack)) GTEST_SKIP() << "built without UMFPACK";
   const LandSystem sys;
@@ -79,6 +79,10 @@ TEST(SparseSolver, UmfpackAnalysisOfThePatternServesEveryMatrixOfIt) {
   T.setFromTriplets(t.begin(), t.end());
   ASSERT_TRUE(umf.factorize(T));
   const Eigen::VectorXd b = Eigen::VectorXd::LinSpaced(n, 1.0, 2.0);
+  EXPECT_LT(relative_residual(T, umf.solve(b), b), 1e-14);
+  SparseMatrix U = T;  // an uncompressed matrix is compressed first
+  U.uncompress();
+  ASSERT_TRUE(umf.factorize(U));
   EXPECT_LT(relative_residual(T, umf.solve(b), b), 1e-14);
 
   SparseMatrix Z = T;
