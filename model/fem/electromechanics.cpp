@@ -556,7 +556,7 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
     const Eigen::Vector2d dP = A.fullPivLu().solve(rhs);
     if (!dP.allFinite()) return -1;
     // d = (du, dp, dP_v, dP_ar): the Newton direction with fresh factors, the chord direction
-    // -J0^-1 F(x) with stale ones.
+    // -J0^-1 F(x) with stale ones (K and b frozen, the cavity and Windkessel rows current).
     Eigen::VectorXd d(nx + 2);
     d << w0 - w1 * dP(0), dP;
     // With stale factors, Broyden's ("good") method on G(x) = J0^-1 F(x), whose Jacobian the chord
