@@ -513,10 +513,9 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
   // factorisation, and the scaled inner product of the unknowns (u / 1 mm, pressures / 1 kPa).
   std::vector<Eigen::VectorXd> steps;
   std::vector<double> steps_n2;
-  Eigen::VectorXd weight(nx + 2);
-  weight.head(nu_).setConstant(1.0 / (kLref * kLref));
-  weight.tail(np_ + 2).setConstant(1.0 / (kPref * kPref));
-  auto wdot = [&](const Eigen::VectorXd& a, const Eigen::VectorXd& b) { return a.cwiseProduct(weight).dot(b); };
+  auto wdot = [&](const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
+    return a.head(nu_).dot(b.head(nu_)) / (kLref * kLref) + a.tail(np_ + 2).dot(b.tail(np_ + 2)) / (kPref * kPref);
+  };
   const double tol = options.newton_tolerance;
   int iterations = 0;
   while (iterations <= options.newton_max_iterations) {

@@ -116,8 +116,7 @@ class Umfpack {
       wi_.resize(static_cast<size_t>(n));
       w_.resize(static_cast<size_t>(n));
     }
-    ax_.assign(A.valuePtr(), A.valuePtr() + A.nonZeros());
-    const int st = umfpack_di_numeric(ap_.data(), ai_.data(), ax_.data(), symbolic_, &numeric_, control_, info_);
+    const int st = umfpack_di_numeric(ap_.data(), ai_.data(), A.valuePtr(), symbolic_, &numeric_, control_, info_);
     if (st != UMFPACK_OK) {  // includes UMFPACK_WARNING_singular_matrix
       if (numeric_) umfpack_di_free_numeric(&numeric_);
       numeric_ = nullptr;
@@ -126,11 +125,12 @@ class Umfpack {
     return true;
   }
 
+  // Without iterative refinement (IRSTEP 0) the solve reads the factors only, not A (umfpack_solve.h).
   Eigen::VectorXd solve(const Eigen::VectorXd& b) {
     Eigen::VectorXd x(b.size());
     if (!numeric_ || b.size() + 1 != static_cast<Eigen::Index>(ap_.size()) ||
-        umfpack_di_wsolve(UMFPACK_A, ap_.data(), ai_.data(), ax_.data(), x.data(), b.data(), numeric_, control_,
-                          info_, wi_.data(), w_.data()) != UMFPACK_OK)
+        umfpack_di_wsolve(UMFPACK_A, nullptr, nullptr, nullptr, x.data(), b.data(), numeric_, control_, info_,
+                          wi_.data(), w_.data()) != UMFPACK_OK)
       x.setConstant(std::numeric_limits<double>::quiet_NaN());
     return x;
   }
@@ -154,7 +154,6 @@ class Umfpack {
   void* symbolic_ = nullptr;
   void* numeric_ = nullptr;
   std::vector<int> ap_, ai_;  // the analysed pattern
-  std::vector<double> ax_;    // the factorised values (wsolve reads the matrix only for refinement)
   std::vector<int> wi_;       // wsolve workspaces: no allocation per solve
   std::vector<double> w_;
 };
