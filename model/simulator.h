@@ -124,6 +124,7 @@ struct RunInfo {
   double period = 0.0;              // [s]
   int newton_iterations = 0;        // total over the run
   int step_cuts = 0;                // how often the time step was halved to recover
+  int factorizations = 0;           // of a Newton tangent, total over the run (0: not counted)
 };
 
 struct RunResult {

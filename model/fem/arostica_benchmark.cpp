@@ -230,6 +230,7 @@ ArosticaResult run_arostica_step1(const Mesh& mesh, const ArosticaOptions& o, co
   eo.viscosity = 100.0;
   eo.time_step = o.time_step;
   eo.linear_solver = o.linear_solver;
+  eo.chord = o.chord;
   eo.robin = {RobinCondition{kEpicardium, 1.0e8, 5.0e3, true}, RobinCondition{kBase, 1.0e5, 5.0e3, false}};
   Elastodynamics dyn(mech, eo);
 
@@ -255,6 +256,7 @@ ArosticaResult run_arostica_step1(const Mesh& mesh, const ArosticaOptions& o, co
   for (int k = 1; k <= n_steps; ++k) {
     const StepRecord rec = dyn.step(x, Load{drv.pressure[static_cast<size_t>(k)], drv.tau[static_cast<size_t>(k)]});
     res.newton_iterations += rec.iterations;
+    res.factorizations += rec.factorizations;
     res.max_newton_iterations = std::max(res.max_newton_iterations, rec.iterations);
     if (!rec.converged) {
       std::ostringstream os;

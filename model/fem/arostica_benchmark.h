@@ -115,6 +115,7 @@ struct ArosticaOptions {
   PenaltyForm penalty = PenaltyForm::kMixed;
   int quadrature_degree = 5;
   LinearSolver linear_solver = LinearSolver::kAuto;
+  bool chord = true;  // ElastodynamicsOptions::chord; false: a factorisation per Newton iteration
   std::string validate() const;
 };
 
@@ -125,6 +126,7 @@ struct ArosticaResult {
   std::vector<Eigen::Vector3d> p0, p1;      // displacement [m] at the output times
   std::vector<double> tau, pressure;        // [Pa] at the output times
   int n_tets = 0, n_unknowns = 0, steps = 0, newton_iterations = 0, max_newton_iterations = 0;
+  int factorizations = 0;                   // of the step tangent, over the run
   double seconds = 0.0;                     // wall time of the time loop
 };
 

@@ -50,6 +50,12 @@ struct ElastodynamicsOptions {
   double displacement_tolerance = 1e-10;
   double pressure_tolerance = 1e-4;
   LinearSolver linear_solver = LinearSolver::kAuto;
+  // Chord iterations: the tangent is factorised at a step's first iterate and reused while the
+  // updates contract by at least `chord_contraction` per iteration; a slower or failed
+  // contraction refactorises at the current iterate. false: a factorisation per iteration
+  // (Newton's method). Either way a step depends only on its inputs.
+  bool chord = true;
+  double chord_contraction = 0.25;
   std::string validate() const;  // empty when valid
 };
 
@@ -66,6 +72,7 @@ struct DynamicState {
 struct StepRecord {
   bool converged = false;
   int iterations = 0;
+  int factorizations = 0;                // of the tangent (= iterations without `chord`)
   std::vector<double> update_norms;  // max |du| [m] after each Newton update
   std::string failure;               // empty, or why Newton failed
 };

@@ -274,6 +274,20 @@ struct LeftVentricle3D::Impl {
   BaseCondition base = BaseCondition::kSliding;
   LeftVentricle3DOptions options;
   std::unique_ptr<SparseSolver> lu;  // the direct solver, its pattern analysed once (step())
+  // Factors carried from one step to the next inside run() (LeftVentricle3DOptions::carry_factors):
+  // `carry` is set by run() only; `carried` says lu holds the factors of an earlier step of this
+  // run, of step length carried_h, with w1 = K^-1 b of that point.
+  bool carry = false;
+  bool carried = false;
+  double carried_h = 0.0;
+  Eigen::VectorXd carried_w1;
+  // The previous step of this run (carry only): its start point and length, for the first
+  // iterate's extrapolation, and the strains at its converged end point (= this step's E^n).
+  bool have_history = false;
+  Eigen::VectorXd hist_u, hist_p;
+  double hist_Pv = 0.0, hist_Par = 0.0, hist_h = 0.0;
+  std::vector<Eigen::Matrix3d> hist_E;
+  int factorizations = 0;  // since the start of the run, for RunInfo::factorizations
 
   Mechanics& mechanics(const BcsPassiveParameters& p) {
     if (!mech || p.c1 != mech_passive.c1 || p.c2 != mech_passive.c2 || p.c_exp != mech_passive.c_exp ||
@@ -395,9 +409,15 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
   const int nqp = g.nqp;
   const Eigen::Index nu_ = nu(), np_ = np(), nx = nu_ + np_;
 
-  // E^n: the strains of the first evaluation below, which is at u^n (no viscous stress there).
-  std::vector<Eigen::Matrix3d> En(static_cast<size_t>(n));
-  bool first_evaluation = true;
+  // E^n: the strains of the first evaluation below, which is at u^n (no viscous stress there);
+  // within a run, those of the previous step's converged point, which is u^n, and the first
+  // iterate is extrapolated from the last two steps' start points.
+  const bool predict = carry && have_history && hist_h > 0.0 && static_cast<int>(hist_E.size()) == n;
+  have_history = false;
+  std::vector<Eigen::Matrix3d> En = predict ? std::move(hist_E) : std::vector<Eigen::Matrix3d>(static_cast<size_t>(n));
+  std::vector<Eigen::Matrix3d> Elast;  // the strains of the latest evaluation (carry only)
+  if (carry) Elast.resize(static_cast<size_t>(n));
+  bool first_evaluation = !predict;
   std::vector<bcs::StepActivation> acts(static_cast<size_t>(n));
   for (int i = 0; i < n; ++i) acts[static_cast<size_t>(i)] = bcs::step_activation(t0, t1, g.td[static_cast<size_t>(i)], m.period, m.act);
   std::vector<bcs::ActiveState> trial(static_cast<size_t>(n));
@@ -407,6 +427,7 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
   const StressHook hook = [&](int e, int q, const Eigen::Matrix3d& E, const Frame& R, Eigen::Matrix3d& S, Matrix9d& D) {
     const size_t i = static_cast<size_t>(e * nqp + q);
     if (first_evaluation) En[i] = E;
+    if (carry) Elast[i] = E;
     const Eigen::Matrix3d ff = active_direction(R, options.active_stress);
     const double eff = active_strain(R, E, options.active_stress);
     bcs::ActiveParameters ap = m.act;
@@ -473,11 +494,28 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
     return std::isfinite(ev.merit);
   };
 
+  // Factors carried from the previous step of this run (same step length): the step starts
+  // with them as stale chord factors, and its first iterate is assembled without the tangent.
+  const bool use_carried = carry && carried && carried_h == h && options.linear_solver != LinearSolver::kAmg;
+  carried = false;
   Eval cur;
   cur.ms = xo.ms;
   cur.Pv = xo.Pv;
   cur.Par = xo.Par;
-  if (!evaluate(cur, true)) return -1;
+  if (predict) {
+    const double r = h / hist_h;
+    cur.ms.u += r * (xo.ms.u - hist_u);
+    cur.ms.p += r * (xo.ms.p - hist_p);
+    cur.Pv += r * (xo.Pv - hist_Pv);
+    cur.Par += r * (xo.Par - hist_Par);
+  }
+  if (!evaluate(cur, !use_carried)) {
+    if (!predict) return -1;
+    cur.ms = xo.ms;  // an extrapolation too far (e.g. an inverted element): start from u^n
+    cur.Pv = xo.Pv;
+    cur.Par = xo.Par;
+    if (!evaluate(cur, !use_carried)) return -1;
+  }
   first_evaluation = false;
   // Newton's method with the factors of the tangent kept while they still contract the residual
   // fast (a chord iteration, Kelley 2003, Solving Nonlinear Equations with Newton's Method, s.2.3):
@@ -486,8 +524,9 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
   // or failed. On linear tetrahedra the factorisation weighs more against the cheap one-point
   // assembly, and a reduction by less than 10 is the threshold (fine mesh, one beat: 80.6 s and
   // 1275 Newton iterations against 90.8 s and 860 at 100; 2 gave 131 s with 36 step cuts). The
-  // factorisation is redone at every step's first iteration, so a step is a pure function of
-  // its inputs (replay lands on the same bits).
+  // factorisation is redone at every step's first iteration of advance(), so a step there is a
+  // pure function of its inputs (replay lands on the same bits); run() carries the factors from
+  // step to step (carry_factors; deterministic in theta).
   const double refactor_ratio = g.mesh.order == 1 ? 0.1 : 0.01;
   // The direct solvers analyse the pattern only (the same for every step; solver.h), so one
   // analysis serves the object's life and every factorisation is a function of the tangent alone.
@@ -507,8 +546,9 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
   }
   SparseSolver& solver = fresh ? *fresh : *lu;
   bool factors_fresh = false;  // the factors belong to the current point
-  bool have_factors = false;
+  bool have_factors = use_carried;
   Eigen::VectorXd w1;  // K^-1 b at the point of the factorisation
+  if (use_carried) w1 = std::move(carried_w1);
   // Broyden's method on the chord directions (below): the full steps taken since the last
   // factorisation, and the scaled inner product of the unknowns (u / 1 mm, pressures / 1 kPa).
   std::vector<Eigen::VectorXd> steps;
@@ -526,6 +566,22 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
       xn.Par = cur.Par;
       xn.Pd = cur.Pd;
       xn.act = std::move(cur.act);
+      if (carry) {
+        // The last evaluation was at cur (accepted candidates end the line search; a refactorisation
+        // re-evaluates cur), so Elast holds the strains of the converged point.
+        have_history = true;
+        hist_u = xo.ms.u;
+        hist_p = xo.ms.p;
+        hist_Pv = xo.Pv;
+        hist_Par = xo.Par;
+        hist_h = h;
+        hist_E = std::move(Elast);
+      }
+      if (carry && have_factors) {
+        carried = true;
+        carried_h = h;
+        carried_w1 = std::move(w1);
+      }
       return iterations;
     }
     if (iterations == options.newton_max_iterations) break;
@@ -534,6 +590,7 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
       // The same point again, now with its tangent: the residual and the trial states come out
       // bit for bit as before (the assembly is a pure function of the point).
       if (!cur.has_K && !evaluate(cur, true)) return -1;
+      ++factorizations;
       if (!solver.factorize(cur.K)) return -1;
       have_factors = factors_fresh = true;
       steps.clear();
@@ -967,6 +1024,16 @@ RunResult LeftVentricle3D::run_checked(const Eigen::Ref<const Eigen::VectorXd>& 
     return result;
   }
   const Eigen::Index nu_ = impl_->nu(), np_ = impl_->np();
+  // Factors carry from step to step within this run only (LeftVentricle3DOptions::carry_factors).
+  struct CarryScope {
+    Impl& impl;
+    CarryScope(Impl& i, bool on) : impl(i) {
+      impl.carry = on;
+      impl.carried = impl.have_history = false;
+    }
+    ~CarryScope() { impl.carry = impl.carried = impl.have_history = false; }
+  } carry_scope(*impl_, options_.carry_factors);
+  impl_->factorizations = 0;
   for (int beat = 1; beat <= options_.max_beats; ++beat) {
     const double t_begin = (beat - 1) * T, t_beat_end = beat * T;
     s.time = t_begin;  // the grid of beat b starts exactly at (b - 1) T
@@ -987,6 +1054,7 @@ RunResult LeftVentricle3D::run_checked(const Eigen::Ref<const Eigen::VectorXd>& 
       }
     }
     result.info.beats = beat;
+    result.info.factorizations = impl_->factorizations;
     auto& tr = result.trajectory;
     tr.times = Eigen::Map<const Eigen::VectorXd>(times.data(), static_cast<Eigen::Index>(times.size()));
     tr.values.resize(static_cast<Eigen::Index>(rows.size()), static_cast<Eigen::Index>(tr.channels.size()));

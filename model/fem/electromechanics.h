@@ -123,6 +123,12 @@ struct LeftVentricle3DOptions {
   // Broyden updates of the chord iterations between factorisations (electromechanics.cpp, step;
   // docs/models.md s.4.8): false gives the plain chord iteration.
   bool broyden = true;
+  // Within one run() the factors of the last step's tangent start the next step's chord
+  // iterations (refactorised when they contract too slowly, as within a step), and the first
+  // iterate is extrapolated from the last two steps (docs/models.md s.4.8). advance() always
+  // starts from fresh factors, so it stays a pure function of (state, theta, t_end); run() is a
+  // pure function of theta either way. false: a factorisation at every step's first iterate.
+  bool carry_factors = true;
 
   ActivationSource activation = ActivationSource::kSynchronous;
   double conduction_velocity = 0.6;  // [m/s] for kApexDistance

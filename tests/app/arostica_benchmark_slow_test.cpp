@@ -35,12 +35,14 @@ struct Curves {
   std::vector<Eigen::Vector3d> u[2];
 };
 
-Curves run_on_the_organisers_mesh(const std::string& end) {
+Curves run_on_the_organisers_mesh(const std::string& end, const std::vector<std::string>& extra = {}) {
   const auto dir = scratch_dir();
   const std::string csv = (dir / "step1.csv").string();
-  const CliRun r = cli({"benchmark", "arostica", "--mesh-file",
-                        std::string(SIGMAHEART_SOURCE_DIR) + "/configs/data/arostica-2025/ellipsoid_0.005.h5", "--end", end,
-                        "-o", csv});
+  std::vector<std::string> args{"benchmark", "arostica", "--mesh-file",
+                                std::string(SIGMAHEART_SOURCE_DIR) + "/configs/data/arostica-2025/ellipsoid_0.005.h5",
+                                "--end", end, "-o", csv};
+  args.insert(args.end(), extra.begin(), extra.end());
+  const CliRun r = cli(args);
   EXPECT_EQ(r.code, 0) << r.out << r.err;
   EXPECT_NE(r.out.find("verified: both ux minima inside"), std::string::npos) << r.out;
   Curves c;
@@ -95,9 +97,12 @@ TEST(ArosticaBenchmarkSlow, Step1OnTheOrganisersMeshPeaksInsideTheSpreadOfTheCod
 // against -15.85 .. -13.49) and lose the codes' residual twist of 0.7-1 s (p1 uz ~0 against
 // +0.16 .. +0.36 mm), where |u_mean| is small and the relative error large (docs/models.md s.4.9).
 // Bounds are the codes', not widened. Run with --gtest_also_run_disabled_tests.
-TEST(ArosticaBenchmarkSlow, DISABLED_Step1OnTheOrganisersMeshHasTheCodesRedOverTheBeat) {
-  const Curves c = run_on_the_organisers_mesh("1.0");
-  ASSERT_EQ(c.time.size(), 101u);
+// The RED of our curves against the codes' mean at p0 and p1, and the largest RED of a code there.
+struct Red {
+  double ours[2], codes_max[2];
+};
+Red red_over_the_beat(const Curves& c) {
+  Red out{};
   const std::string pts[2] = {"p0", "p1"};
   const char* comp[3] = {"ux", "uy", "uz"};
   for (int i = 0; i < 2; ++i) {
@@ -110,9 +115,35 @@ TEST(ArosticaBenchmarkSlow, DISABLED_Step1OnTheOrganisersMeshHasTheCodesRedOverT
       const Eigen::Vector3d m(mean[0][n], mean[1][n], mean[2][n]);
       red += (c.u[i][n] - m).norm() / m.norm();
     }
-    red /= static_cast<double>(c.time.size());
-    RecordProperty("red_" + p, std::to_string(red));
-    EXPECT_LE(red, *std::max_element(team_red.begin(), team_red.end())) << p << " RED";
+    out.ours[i] = red / static_cast<double>(c.time.size());
+    out.codes_max[i] = *std::max_element(team_red.begin(), team_red.end());
+  }
+  return out;
+}
+
+TEST(ArosticaBenchmarkSlow, DISABLED_Step1OnTheOrganisersMeshHasTheCodesRedOverTheBeat) {
+  const Curves c = run_on_the_organisers_mesh("1.0");
+  ASSERT_EQ(c.time.size(), 101u);
+  const Red r = red_over_the_beat(c);
+  for (int i = 0; i < 2; ++i) {
+    RecordProperty(i == 0 ? "red_p0" : "red_p1", std::to_string(r.ours[i]));
+    EXPECT_LE(r.ours[i], r.codes_max[i]) << (i == 0 ? "p0" : "p1") << " RED";
+  }
+}
+
+// The same whole beat with straight-sided quadratic elements on the organisers' mesh (`--order 2
+// --penalty st91 --dt 2e-3`: the benchmark's displacement-only formulation, 89,679 unknowns, 500
+// steps; about 1.5 h of one core with the chord iteration of ElastodynamicsOptions): P2 follows the
+// codes' mean through the relaxation where P1 recoils early (docs/models.md s.4.9), so its RED is
+// within the codes' own (at most the largest RED of a code, 0.171 at p0 and 0.226 at p1; bounds
+// not widened). Measured 2026-11-27 by the same command: see docs/models.md s.4.9.
+TEST(ArosticaBenchmarkSlow, Step1OnTheOrganisersMeshWithQuadraticElementsHasTheCodesRedOverTheBeat) {
+  const Curves c = run_on_the_organisers_mesh("1.0", {"--order", "2", "--penalty", "st91", "--dt", "2e-3"});
+  ASSERT_EQ(c.time.size(), 101u);
+  const Red r = red_over_the_beat(c);
+  for (int i = 0; i < 2; ++i) {
+    RecordProperty(i == 0 ? "red_p0" : "red_p1", std::to_string(r.ours[i]));
+    EXPECT_LE(r.ours[i], r.codes_max[i]) << (i == 0 ? "p0" : "p1") << " RED";
   }
 }
 
