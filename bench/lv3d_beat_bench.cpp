@@ -12,7 +12,9 @@
 // job: 396 / 3312 / 11 340 / 27 072 tets 1.02 / 14.2 / 50.2 / 166 s (fresh factors at every step,
 // last argument 0: 1.85 / 20.5 / 90.9 s), 48 / 57 / 62 / 65 factorisations (fresh: 181 / 207 /
 // 223), 914 / 955 / 998 / 1015 Newton iterations, the same EF; growth unknowns^1.48 / 1.15 / 1.50.
-// The fine beat meets the target on this machine. docs/models.md s.4.8, "Cost".
+// Idle machine, 15:09-15:11 UTC, carried: 0.77 / 11.7 / 58.2 s on 1 thread, 0.79 / 10.8 / 50.0 s
+// on 2. The fine beat meets the target on this machine (50.2 and 58.2 s on 1 thread in two runs).
+// docs/models.md s.4.8, "Cost".
 //   build/bench/lv3d_beat_bench --benchmark_filter='LinearBySize/.*/1/1/[01]$'
 // Earlier the same day (before the carried factors): the fine mesh took 84.9 s on the
 // machine of 2026-11-27 (AMD EPYC, 2.45 GHz, idle), where the code before that day's Newton changes

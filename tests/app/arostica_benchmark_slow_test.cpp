@@ -58,7 +58,8 @@ Curves run_on_the_organisers_mesh(const std::string& end, const std::vector<std:
   return c;
 }
 
-// Systole and the peak (0-0.6 s, 600 steps; about 10 minutes of one core). The codes' own spread:
+// Systole and the peak (0-0.6 s, 600 steps; 536 s of one core on 2026-11-27). The codes' own
+// spread:
 //  - the p0 and p1 ux minima lie within the range of the ten codes' minima (p0 -35.867 ..
 //    -34.347 mm, p1 -27.568 .. -26.138 mm; step1_teams.csv), at the codes' time (0.47-0.48 s);
 //    the command says "verified", exit 0;
@@ -133,10 +134,11 @@ TEST(ArosticaBenchmarkSlow, DISABLED_Step1OnTheOrganisersMeshHasTheCodesRedOverT
 
 // The same whole beat with straight-sided quadratic elements on the organisers' mesh (`--order 2
 // --penalty st91 --dt 2e-3`: the benchmark's displacement-only formulation, 89,679 unknowns, 500
-// steps; about 1.5 h of one core with the chord iteration of ElastodynamicsOptions): P2 follows the
+// steps; about 2 h of one core with the chord iteration of ElastodynamicsOptions): P2 follows the
 // codes' mean through the relaxation where P1 recoils early (docs/models.md s.4.9), so its RED is
 // within the codes' own (at most the largest RED of a code, 0.171 at p0 and 0.226 at p1; bounds
-// not widened). Measured 2026-11-27 by the same command: see docs/models.md s.4.9.
+// not widened). Measured 2026-11-27 by the same command (7,846 s, the second core busy): RED 0.0431
+// at p0 and 0.0559 at p1, below every code's own (docs/models.md s.4.9).
 TEST(ArosticaBenchmarkSlow, Step1OnTheOrganisersMeshWithQuadraticElementsHasTheCodesRedOverTheBeat) {
   const Curves c = run_on_the_organisers_mesh("1.0", {"--order", "2", "--penalty", "st91", "--dt", "2e-3"});
   ASSERT_EQ(c.time.size(), 101u);
