@@ -16,6 +16,14 @@
 // on 2. The fine beat meets the target on this machine (50.2 and 58.2 s on 1 thread in two runs).
 // docs/models.md s.4.8, "Cost".
 //   build/bench/lv3d_beat_bench --benchmark_filter='LinearBySize/.*/1/1/[01]$'
+// The iterative solver on the same linear tetrahedra (BM_Lv3dBeatLinearBySizeAmg, sparse Schur
+// approximation; 1 thread, CPU time, 2026-11-27 16:23-16:40 UTC, second core running the tests):
+// 584 / 3468 / 10 384 unknowns: GMRES to 1e-10 15.9 / 247 / (~1500 s wall with both cores loaded,
+// by `sigmaheart simulate`) s, to 1e-2 5.29 / 63.1 / 372 s; 536 / 620 / 659 and 744 / 783 / 844
+// Newton iterations, EF as UMFPACK's to four digits. 5-20x UMFPACK's time, growth unknowns^1.54 /
+// 1.39 from coarse to medium, 1.62 (1e-2) from medium to fine: the GMRES iterations grow with the
+// mesh (docs/models.md s.4.8, "Cost").
+//   build/bench/lv3d_beat_bench --benchmark_filter='LinearBySizeAmg/.*/1/'
 // Earlier the same day (before the carried factors): the fine mesh took 84.9 s on the
 // machine of 2026-11-27 (AMD EPYC, 2.45 GHz, idle), where the code before that day's Newton changes
 // (pattern-only UMFPACK analysis, w1 frozen with the factors, residual-only stress, Broyden
@@ -160,6 +168,22 @@ void BM_Lv3dBeatLinearBySize(benchmark::State& st) {
   o.linear_solver = LinearSolver::kUmfPack;
   beat(st, o, static_cast<int>(st.range(3)));
 }
+// The same linear tetrahedra with the iterative solver (GMRES + BoomerAMG with the sparse Schur
+// approximation, model/fem/solver.h): arguments (n_transmural, n_longitudinal, n_circumferential,
+// threads, k) with linear_tolerance 10^-k (10: the default; 2: an inexact Newton method). No
+// factors are carried (the AMG set-up is per step).
+void BM_Lv3dBeatLinearBySizeAmg(benchmark::State& st) {
+  LeftVentricle3DOptions o;
+  o.n_transmural = static_cast<int>(st.range(0));
+  o.n_longitudinal = static_cast<int>(st.range(1));
+  o.n_circumferential = static_cast<int>(st.range(2));
+  o.element_order = 1;
+  o.bulk_modulus = 1e7;
+  o.quadrature_degree = 1;
+  o.linear_solver = LinearSolver::kAmg;
+  o.linear_tolerance = std::pow(10.0, -static_cast<double>(st.range(4)));
+  beat(st, o, static_cast<int>(st.range(3)));
+}
 // The passive inflation plus the first 10 time steps of the beat (isovolumic contraction, the
 // hardest Newton solves), for sizes whose full beat takes too long to repeat: a beat is ~170 steps
 // at dt 5 ms, about half of them in the easier ejection and filling phases.
@@ -210,6 +234,16 @@ BENCHMARK(BM_Lv3dBeatLinearBySize)
     ->ArgsProduct({{2}, {12}, {24}, {1, 2}, {1, 0}, {1, 0}})
     ->ArgsProduct({{3}, {18}, {36}, {1, 2}, {1, 0}, {1, 0}})
     ->ArgsProduct({{4}, {24}, {48}, {1, 2}, {1, 0}, {1, 0}})
+    ->Args({5, 30, 60, 1, 1, 1})
+    ->Unit(benchmark::kSecond)
+    ->Iterations(1)
+    ->UseRealTime();
+
+BENCHMARK(BM_Lv3dBeatLinearBySizeAmg)
+    ->ArgsProduct({{1}, {6}, {12}, {1, 2}, {10, 2}})
+    ->ArgsProduct({{2}, {12}, {24}, {1, 2}, {10, 2}})
+    ->ArgsProduct({{3}, {18}, {36}, {1, 2}, {10, 2}})
+    ->ArgsProduct({{4}, {24}, {48}, {1}, {10, 2}})
     ->Unit(benchmark::kSecond)
     ->Iterations(1)
     ->UseRealTime();

@@ -20,7 +20,8 @@ void register_fem_models(ModelRegistry& registry);
 //   periodic_tolerance: 1e-3,  output_every: 1,  newton_tolerance: 1e-8,  newton_max_iterations: 20
 //   activation: synchronous | apex_distance,  conduction_velocity: 0.6 m/s
 //   linear_solver: sparselu (default: the same bits in every thread) | auto | umfpack | amg (GMRES +
-//   BoomerAMG block preconditioner, solver.h; for the medium and fine meshes)
+//   BoomerAMG block preconditioner, solver.h; slower than umfpack on the bundled meshes,
+//   docs/models.md s.4.8 "Cost")
 // Errors go through the reader (file:line:column in app/).
 LeftVentricle3DOptions read_lv3d_options(const OptionReader& numerics);
 

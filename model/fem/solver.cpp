@@ -59,6 +59,7 @@ std::string IterativeOptions::validate() const {
   if (restart < 1) return "restart must be >= 1";
   if (!(strong_threshold > 0 && strong_threshold < 1)) return "strong_threshold must be in (0, 1)";
   if (!(augmentation >= 0) || !std::isfinite(augmentation)) return "augmentation must be finite and >= 0";
+  if (schur_cycles < 1) return "schur_cycles must be >= 1";
   return {};
 }
 
@@ -206,7 +207,8 @@ class HypreLock {
 // A serial hypre ParCSR matrix built from a row-major Eigen matrix, and BoomerAMG on it.
 class BoomerAmg {
  public:
-  BoomerAmg(const RowMatrix& A, double strong_threshold) {
+  // `functions` unknowns per node (node-major), `cycles` V-cycles per apply().
+  BoomerAmg(const RowMatrix& A, double strong_threshold, int functions, int cycles) {
     HypreRuntime& rt = hypre_runtime();
     HypreLock lock(rt);
     const HYPRE_BigInt n = static_cast<HYPRE_BigInt>(A.rows());
@@ -230,14 +232,14 @@ class BoomerAmg {
 
     HYPRE_BoomerAMGCreate(&amg_);
     HYPRE_BoomerAMGSetPrintLevel(amg_, 0);
-    HYPRE_BoomerAMGSetMaxIter(amg_, 1);  // one V-cycle: a preconditioner
+    HYPRE_BoomerAMGSetMaxIter(amg_, cycles);  // a fixed number of V-cycles: a preconditioner
     HYPRE_BoomerAMGSetTol(amg_, 0.0);
     // Systems AMG for elasticity, the "unknown approach" (Baker, Kolev & Yang 2010, "Improving
     // algebraic multigrid interpolation operators for linear elasticity problems", Numer. Linear
     // Algebra Appl. 17:495, s.2): 3 functions per node (node-major dofs, hypre's default dof_func),
     // each coarsened and interpolated on its own couplings. The nodal variant (Frobenius norms of
     // the node blocks) took as many iterations on the lv-3d tangents (84 against 90, medium mesh).
-    HYPRE_BoomerAMGSetNumFunctions(amg_, 3);
+    HYPRE_BoomerAMGSetNumFunctions(amg_, functions);
     HYPRE_BoomerAMGSetNodal(amg_, 0);
     HYPRE_BoomerAMGSetStrongThreshold(amg_, strong_threshold);
     HYPRE_BoomerAMGSetCoarsenType(amg_, 10);  // HMIS
@@ -324,12 +326,19 @@ struct SparseSolver::Impl {
   Eigen::VectorXd schur;      // diagonal Schur complement approximation (positive), n_p
   Eigen::VectorXd row_scale;  // 1 / max_j |K_ij|: the residual norm of GMRES is on S (b - K x)
   std::unique_ptr<BoomerAmg> amg;
+  std::unique_ptr<BoomerAmg> amg_schur;  // on the sparse Schur approximation (Schur::kSparse)
 
   // z = M r, M = P^-1 T ~ K^-1 with P = [A_g B_g^T; 0 -Shat] ~ T K (block upper triangular).
   void precondition(const Eigen::VectorXd& r, Eigen::VectorXd& z) const {
     const Eigen::Index np = r.size() - n_u;
     z.resize(r.size());
-    z.tail(np) = -r.tail(np).cwiseQuotient(schur);
+    if (amg_schur) {
+      const Eigen::VectorXd rp = r.tail(np);
+      amg_schur->apply(rp.data(), z.data() + n_u);
+      z.tail(np) = -z.tail(np);
+    } else {
+      z.tail(np) = -r.tail(np).cwiseQuotient(schur);
+    }
     const Eigen::VectorXd ru = r.head(n_u) + Bt * g_winv.cwiseProduct(r.tail(np)) - Bt_g * z.tail(np);
     amg->apply(ru.data(), z.data());
   }
@@ -373,6 +382,7 @@ bool SparseSolver::factorize(const SparseMatrixInt& A) {
     const auto t0 = Clock::now();
     const Eigen::Index n = A.rows(), nu = m.n_u, np = n - nu;
     m.amg.reset();
+    m.amg_schur.reset();
     m.K = A;
     const RowMatrix Auu = A.topLeftCorner(nu, nu);
     m.Bt = A.topRightCorner(nu, np);
@@ -413,6 +423,27 @@ bool SparseSolver::factorize(const SparseMatrixInt& A) {
     m.schur = simple_diagonal(Ag.diagonal()) - C.diagonal();
     for (Eigen::Index i = 0; i < np; ++i)
       if (!(m.schur[i] > 0)) m.schur[i] = W[i];
+    if (iterative_.schur == IterativeOptions::Schur::kSparse) {
+      // The sparse Schur approximation Shat = B |diag(A_g)|^-1 B^T - C, the matrix whose diagonal is
+      // SIMPLE's (Elman et al. 2008, s.3), applied by BoomerAMG V-cycles on it (one function per
+      // vertex). It matters for linear tetrahedra: P1-P1 is not inf-sup stable, so pressure modes q
+      // with B^T q ~ 0 make the true Schur complement B A^-1 B^T - C nearly as small as the penalty
+      // -C = M_p / kappa on them (ratio kappa / mu ~ 1e3-1e4), which no diagonal represents;
+      // B D^-1 B^T vanishes on the same modes. Measured on tangents of the linear lv-3d beat (docs/models.md s.4.4): GMRES to
+      // 1e-8 in 80-150 iterations against 290-760 with the diagonal; on P2-P1 29-32 against 37-39.
+      const Eigen::VectorXd dinv = Ag.diagonal().cwiseAbs().cwiseInverse();
+      RowMatrix Sh = RowMatrix(B * dinv.asDiagonal() * m.Bt) - C;
+      // A row without a positive diagonal (a pressure without volume coupling: empty rows of B and
+      // C) gets W_i (1 for an empty row), so that the V-cycle's smoother has a diagonal to invert.
+      for (Eigen::Index i = 0; i < np; ++i)
+        if (!(Sh.coeff(i, i) > 0)) Sh.coeffRef(i, i) = W[i];
+      Sh.makeCompressed();  // BoomerAmg reads the compressed row pointers
+      m.amg_schur = std::make_unique<BoomerAmg>(Sh, iterative_.strong_threshold, 1, iterative_.schur_cycles);
+      if (!m.amg_schur->ok()) {
+        m.amg_schur.reset();
+        return false;
+      }
+    }
     m.row_scale.resize(n);
     {
       const RowMatrix Kr = A;
@@ -422,7 +453,7 @@ bool SparseSolver::factorize(const SparseMatrixInt& A) {
         m.row_scale[i] = mx > 0 ? 1.0 / mx : 1.0;
       }
     }
-    m.amg = std::make_unique<BoomerAmg>(Ag, iterative_.strong_threshold);
+    m.amg = std::make_unique<BoomerAmg>(Ag, iterative_.strong_threshold, 3, 1);
     ++stats_.setups;
     stats_.setup_seconds += seconds_since(t0);
     if (!m.amg->ok()) {

@@ -3,9 +3,9 @@
 //    Symbolic analysis once per pattern, numeric factorisation per factorize() (the pattern of the
 //    mechanics tangent never changes).
 //  - iterative (kAmg, when built with hypre): restarted GMRES right-preconditioned by a block
-//    upper-triangular preconditioner of the Taylor-Hood saddle point, one BoomerAMG V-cycle on the
-//    displacement block and a diagonal Schur complement on the pressure block (solver.cpp says which
-//    literature). It needs the block layout (set_saddle_point) and factorize() builds the
+//    upper-triangular preconditioner of the (u, p) saddle point, one BoomerAMG V-cycle on the
+//    displacement block and a sparse Schur complement approximation on the pressure block, itself
+//    applied by BoomerAMG (solver.cpp says which literature). It needs the block layout (set_saddle_point) and factorize() builds the
 //    preconditioner instead of factors; solve() then solves with the matrix given to factorize().
 #pragma once
 
@@ -31,6 +31,13 @@ struct IterativeOptions {
   // mesh: 76 against 90 at 0.5) with the smallest hierarchy (1.3x the tangent's nonzeros).
   double strong_threshold = 0.25;
   double augmentation = 0.0;          // g >= 0 of the augmented Lagrangian block A + g B^T W^-1 B (solver.cpp)
+  // Schur complement approximation of the pressure block (solver.cpp): kSparse (default) the sparse
+  // S^ = B |diag A|^-1 B^T - C, applied by `schur_cycles` BoomerAMG V-cycles; kDiagonal its
+  // diagonal (SIMPLE), which misses the spurious pressure modes of P1-P1 elements (GMRES to 1e-8 then
+  // takes 290-760 iterations on the linear lv-3d tangents against 80-150; docs/models.md s.4.4).
+  enum class Schur { kDiagonal, kSparse };
+  Schur schur = Schur::kSparse;
+  int schur_cycles = 2;
   std::string validate() const;       // empty when valid
 };
 
