@@ -423,14 +423,19 @@ bool SparseSolver::factorize(const SparseMatrixInt& A) {
     m.schur = simple_diagonal(Ag.diagonal()) - C.diagonal();
     for (Eigen::Index i = 0; i < np; ++i)
       if (!(m.schur[i] > 0)) m.schur[i] = W[i];
-    if (iterative_.schur == IterativeOptions::Schur::kSparse) {
+    const bool sparse_schur = iterative_.schur == IterativeOptions::Schur::kSparse ||
+                              (iterative_.schur == IterativeOptions::Schur::kAuto && nu == 3 * np);
+    if (sparse_schur) {
       // The sparse Schur approximation Shat = B |diag(A_g)|^-1 B^T - C, the matrix whose diagonal is
       // SIMPLE's (Elman et al. 2008, s.3), applied by BoomerAMG V-cycles on it (one function per
       // vertex). It matters for linear tetrahedra: P1-P1 is not inf-sup stable, so pressure modes q
       // with B^T q ~ 0 make the true Schur complement B A^-1 B^T - C nearly as small as the penalty
       // -C = M_p / kappa on them (ratio kappa / mu ~ 1e3-1e4), which no diagonal represents;
-      // B D^-1 B^T vanishes on the same modes. Measured on tangents of the linear lv-3d beat (docs/models.md s.4.4): GMRES to
-      // 1e-8 in 80-150 iterations against 290-760 with the diagonal; on P2-P1 29-32 against 37-39.
+      // B D^-1 B^T vanishes on the same modes. Measured on tangents of the linear lv-3d beat
+      // (docs/models.md s.4.4): GMRES to 1e-8 in 80-150 iterations against 290-760 with the
+      // diagonal. On Taylor-Hood (P2-P1) its iterations grow faster and its wider stencil costs
+      // more (Land problem 2 tangent, K = 1 / 2 / 3: 42 / 69 / 97 iterations against 51 / 69 / 76,
+      // 0.79 / 1.11 / 1.41x the time), so kAuto keeps the diagonal there.
       const Eigen::VectorXd dinv = Ag.diagonal().cwiseAbs().cwiseInverse();
       RowMatrix Sh = RowMatrix(B * dinv.asDiagonal() * m.Bt) - C;
       // A row without a positive diagonal (a pressure without volume coupling: empty rows of B and

@@ -31,12 +31,14 @@ struct IterativeOptions {
   // mesh: 76 against 90 at 0.5) with the smallest hierarchy (1.3x the tangent's nonzeros).
   double strong_threshold = 0.25;
   double augmentation = 0.0;          // g >= 0 of the augmented Lagrangian block A + g B^T W^-1 B (solver.cpp)
-  // Schur complement approximation of the pressure block (solver.cpp): kSparse (default) the sparse
+  // Schur complement approximation of the pressure block (solver.cpp): kSparse the sparse
   // S^ = B |diag A|^-1 B^T - C, applied by `schur_cycles` BoomerAMG V-cycles; kDiagonal its
   // diagonal (SIMPLE), which misses the spurious pressure modes of P1-P1 elements (GMRES to 1e-8 then
-  // takes 290-760 iterations on the linear lv-3d tangents against 80-150; docs/models.md s.4.4).
-  enum class Schur { kDiagonal, kSparse };
-  Schur schur = Schur::kSparse;
+  // takes 290-760 iterations on the linear lv-3d tangents against 80-150); kAuto (default) kSparse
+  // for equal-order elements (n_u = 3 n_p: every node carries a pressure) and kDiagonal otherwise
+  // (Taylor-Hood, where the sparse form costs more on the larger meshes; docs/models.md s.4.4).
+  enum class Schur { kAuto, kDiagonal, kSparse };
+  Schur schur = Schur::kAuto;
   int schur_cycles = 2;
   std::string validate() const;       // empty when valid
 };

@@ -134,8 +134,8 @@ TEST(SparseSolver, AmgSolvesAnIndefiniteLandTangentToTheDirectSolution) {
   SparseSolver lu(LinearSolver::kSparseLU);
   ASSERT_TRUE(lu.factorize(sys.K));
   const Eigen::VectorXd direct = lu.solve(-sys.R);
-  // SIMPLE's diagonal Schur approximation without and with the augmented Lagrangian g = 1, then
-  // the default sparse one (g = 0).
+  // SIMPLE's diagonal Schur approximation (kAuto's choice for Taylor-Hood) without and with the
+  // augmented Lagrangian g = 1, then the sparse one (g = 0).
   const IterativeOptions::Schur schur[3] = {IterativeOptions::Schur::kDiagonal, IterativeOptions::Schur::kDiagonal,
                                             IterativeOptions::Schur::kSparse};
   int iterations[3] = {0, 0, 0};
@@ -162,13 +162,13 @@ TEST(SparseSolver, AmgSolvesAnIndefiniteLandTangentToTheDirectSolution) {
     iterations[k] = st.last_iterations;
   }
   // Measured 814 and 171, and 1650 and 274 on the AMD EPYC: the augmentation stiffens the softened
-  // dilatations. The sparse Schur approximation: 884 (AMD EPYC).
+  // dilatations. The sparse Schur approximation: 884 (AMD EPYC), 404 with g = 1.
   EXPECT_LT(iterations[1], iterations[0] / 2);
   std::printf("GMRES iterations: diagonal g = 0 %d, g = 1 %d; sparse g = 0 %d\n", iterations[0], iterations[1],
               iterations[2]);
 }
 
-// The sparse Schur approximation (IterativeOptions::Schur::kSparse, the default) against SIMPLE's
+// The sparse Schur approximation (IterativeOptions::Schur::kSparse, kAuto's choice here) against SIMPLE's
 // diagonal on P1-P1 tangents of two refinements: the diagonal misses the spurious pressure modes,
 // on which the Schur complement is as small as the penalty, and GMRES needs many times the
 // iterations; with the sparse one both land on the direct solution.
@@ -179,10 +179,13 @@ TEST(SparseSolver, SparseSchurApproximationSolvesLinearTetrahedraInAFractionOfTh
     SparseSolver lu(LinearSolver::kSparseLU);
     ASSERT_TRUE(lu.factorize(sys.K));
     const Eigen::VectorXd direct = lu.solve(-sys.R);
-    int iterations[2] = {0, 0};
-    for (int k = 0; k < 2; ++k) {
+    // Sparse, diagonal, and the default (kAuto: sparse for these equal-order elements).
+    const IterativeOptions::Schur schur[3] = {IterativeOptions::Schur::kSparse, IterativeOptions::Schur::kDiagonal,
+                                              IterativeOptions::Schur::kAuto};
+    int iterations[3] = {0, 0, 0};
+    for (int k = 0; k < 3; ++k) {
       IterativeOptions io;
-      io.schur = k == 0 ? IterativeOptions::Schur::kSparse : IterativeOptions::Schur::kDiagonal;
+      io.schur = schur[k];
       io.relative_tolerance = 1e-8;
       io.max_iterations = 5000;
       SparseSolver amg(LinearSolver::kAmg, io);
@@ -197,6 +200,7 @@ TEST(SparseSolver, SparseSchurApproximationSolvesLinearTetrahedraInAFractionOfTh
     }
     // Measured (2026-11-27, AMD EPYC): K = 1 112 against 465, K = 2 164 against 1092.
     EXPECT_LT(3 * iterations[0], iterations[1]) << "K = " << refinement;
+    EXPECT_EQ(iterations[2], iterations[0]) << "K = " << refinement;
     std::printf("K = %d: GMRES iterations sparse %d, diagonal %d\n", refinement, iterations[0], iterations[1]);
   }
 }
