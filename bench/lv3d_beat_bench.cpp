@@ -17,12 +17,11 @@
 // docs/models.md s.4.8, "Cost".
 //   build/bench/lv3d_beat_bench --benchmark_filter='LinearBySize/.*/1/1/[01]$'
 // The iterative solver on the same linear tetrahedra (BM_Lv3dBeatLinearBySizeAmg, sparse Schur
-// approximation; 1 thread, CPU time, 2026-11-27 16:23-16:40 UTC, second core running the tests):
-// 584 / 3468 / 10 384 unknowns: GMRES to 1e-10 15.9 / 247 / (~1500 s wall with both cores loaded,
-// by `sigmaheart simulate`) s, to 1e-2 5.29 / 63.1 / 372 s; 536 / 620 / 659 and 744 / 783 / 844
-// Newton iterations, EF as UMFPACK's to four digits. 5-20x UMFPACK's time, growth unknowns^1.54 /
-// 1.39 from coarse to medium, 1.62 (1e-2) from medium to fine: the GMRES iterations grow with the
-// mesh (docs/models.md s.4.8, "Cost").
+// approximation; 1 thread, CPU time, 2026-11-27 16:23-17:07 UTC, second core partly busy):
+// 584 / 3468 / 10 384 unknowns: GMRES to 1e-10 15.9 / 247 / 1517 s, to 1e-2 5.29 / 63.1 / 372 s;
+// 536 / 620 / 659 and 744 / 783 / 844 Newton iterations, EF as UMFPACK's to four digits. 5-30x
+// UMFPACK's time, growth unknowns^1.54 / 1.65 (1e-10) and 1.39 / 1.62 (1e-2): the GMRES iterations
+// grow with the mesh (docs/models.md s.4.8, "Cost").
 //   build/bench/lv3d_beat_bench --benchmark_filter='LinearBySizeAmg/.*/1/'
 // Earlier the same day (before the carried factors): the fine mesh took 84.9 s on the
 // machine of 2026-11-27 (AMD EPYC, 2.45 GHz, idle), where the code before that day's Newton changes
