@@ -22,54 +22,13 @@
 namespace sigmaheart::model::fem {
 namespace {
 
-// The tangent and residual of Land problem 2 (K = 1) after one Newton step at 2 kPa from the
-// unloaded state (as bench/fem_bench.cpp): a hard case, its displacement block has 24 negative
-// pivots (the pressure's geometric stiffness, solver.cpp).
-struct LandSystem {
+// A Newton system of `mech`: the tangent and residual at 2 kPa after one Newton step from the
+// unloaded state (as bench/fem_bench.cpp).
+struct NewtonSystem {
   SparseMatrix K;
   Eigen::VectorXd R;
   int nu = 0;
-  LandSystem() {
-    LandOptions o;
-    o.problem = 2;
-    o.refinement = 1;
-    const auto mech = land_mechanics(o);
-    State s = mech->initial_state();
-    const Load load{2e3, 0.0};
-    mech->assemble(s, load, &R, &K);
-    SparseSolver lu(LinearSolver::kSparseLU);
-    EXPECT_TRUE(lu.factorize(K));
-    const Eigen::VectorXd dx = lu.solve(-R);
-    s.u += dx.head(s.u.size());
-    s.p += dx.tail(s.p.size());
-    mech->assemble(s, load, &R, &K);
-    nu = static_cast<int>(s.u.size());
-  }
-};
-
-double relative_difference(const Eigen::VectorXd& a, const Eigen::VectorXd& b) { return (a - b).norm() / b.norm(); }
-
-// The same problem on linear tetrahedra, P1-P1 with the penalty of lv-3d's linear elements
-// (bulk modulus 10 MPa, one quadrature point; docs/models.md s.4.8): a tangent whose Schur
-// complement is nearly singular on P1-P1's spurious pressure modes (solver.cpp).
-struct LinearLandSystem {
-  SparseMatrix K;
-  Eigen::VectorXd R;
-  int nu = 0;
-  explicit LinearLandSystem(int refinement) {
-    EllipsoidMeshOptions eo;
-    eo.n_transmural = refinement;
-    eo.n_longitudinal = 6 * refinement;
-    eo.n_circumferential = 12 * refinement;
-    eo.order = 1;
-    const EllipsoidGeometry geo;
-    const Mesh mesh = ellipsoid_mesh(geo, eo);
-    MechanicsOptions mo;
-    mo.bulk_modulus = 1e7;
-    mo.quadrature_degree = 1;
-    Mechanics mech(mesh, ellipsoid_fibres(mesh, geo, FibreOptions{90.0, -90.0}, mo.quadrature_degree),
-                   std::make_unique<Guccione>(GuccioneParameters{10e3, 1.0, 1.0, 1.0}), mo);
-    mech.apply_base_condition(kBase, BaseCondition::kFixed);
+  explicit NewtonSystem(const Mechanics& mech) {
     State s = mech.initial_state();
     const Load load{2e3, 0.0};
     mech.assemble(s, load, &R, &K);
@@ -82,6 +41,34 @@ struct LinearLandSystem {
     nu = static_cast<int>(s.u.size());
   }
 };
+
+// Land problem 2 (K = 1): a hard case, its displacement block has 24 negative pivots (the
+// pressure's geometric stiffness, solver.cpp).
+struct LandSystem : NewtonSystem {
+  LandSystem() : NewtonSystem(*land_mechanics(LandOptions{})) {}
+};
+
+double relative_difference(const Eigen::VectorXd& a, const Eigen::VectorXd& b) { return (a - b).norm() / b.norm(); }
+
+// The same ventricle at refinement K on linear tetrahedra, P1-P1 with the penalty of lv-3d's linear
+// elements (bulk modulus 10 MPa, one quadrature point; docs/models.md s.4.8): a tangent whose Schur
+// complement is nearly singular on P1-P1's spurious pressure modes (solver.cpp).
+std::unique_ptr<Mechanics> linear_land_mechanics(int refinement) {
+  EllipsoidMeshOptions eo;
+  eo.n_transmural = refinement;
+  eo.n_longitudinal = 6 * refinement;
+  eo.n_circumferential = 12 * refinement;
+  eo.order = 1;
+  const EllipsoidGeometry geo;
+  const Mesh mesh = ellipsoid_mesh(geo, eo);
+  MechanicsOptions mo;
+  mo.bulk_modulus = 1e7;
+  mo.quadrature_degree = 1;
+  auto mech = std::make_unique<Mechanics>(mesh, ellipsoid_fibres(mesh, geo, FibreOptions{90.0, -90.0}, mo.quadrature_degree),
+                                          std::make_unique<Guccione>(GuccioneParameters{10e3, 1.0, 1.0, 1.0}), mo);
+  mech->apply_base_condition(kBase, BaseCondition::kFixed);
+  return mech;
+}
 
 // UMFPACK's symbolic analysis is made from the pattern alone (solver.cpp), so one solver object
 // factorises every matrix of that pattern: a second tangent of the same pattern (here the first
@@ -175,7 +162,7 @@ TEST(SparseSolver, AmgSolvesAnIndefiniteLandTangentToTheDirectSolution) {
 TEST(SparseSolver, SparseSchurApproximationSolvesLinearTetrahedraInAFractionOfTheIterations) {
   if (!linear_solver_available(LinearSolver::kAmg)) GTEST_SKIP() << "built without hypre";
   for (int refinement : {1, 2}) {
-    const LinearLandSystem sys(refinement);
+    const NewtonSystem sys(*linear_land_mechanics(refinement));
     SparseSolver lu(LinearSolver::kSparseLU);
     ASSERT_TRUE(lu.factorize(sys.K));
     const Eigen::VectorXd direct = lu.solve(-sys.R);
