@@ -323,7 +323,7 @@ struct SparseSolver::Impl {
   RowMatrix Bt;               // K(0:n_u, n_u:n)
   RowMatrix Bt_g;             // (T K)(0:n_u, n_u:n) = B^T + g B^T W^-1 C
   Eigen::VectorXd g_winv;     // g / W
-  Eigen::VectorXd schur;      // diagonal Schur complement approximation (positive), n_p
+  Eigen::VectorXd schur;      // diagonal Schur complement approximation (positive), n_p (kDiagonal)
   Eigen::VectorXd row_scale;  // 1 / max_j |K_ij|: the residual norm of GMRES is on S (b - K x)
   std::unique_ptr<BoomerAmg> amg;
   std::unique_ptr<BoomerAmg> amg_schur;  // on the sparse Schur approximation (Schur::kSparse)
@@ -333,8 +333,7 @@ struct SparseSolver::Impl {
     const Eigen::Index np = r.size() - n_u;
     z.resize(r.size());
     if (amg_schur) {
-      const Eigen::VectorXd rp = r.tail(np);
-      amg_schur->apply(rp.data(), z.data() + n_u);
+      amg_schur->apply(r.data() + n_u, z.data() + n_u);
       z.tail(np) = -z.tail(np);
     } else {
       z.tail(np) = -r.tail(np).cwiseQuotient(schur);
@@ -419,13 +418,14 @@ bool SparseSolver::factorize(const SparseMatrixInt& A) {
     m.g_winv = gam * W.cwiseInverse();
     const RowMatrix Ag = gam > 0 ? RowMatrix(Auu + RowMatrix(m.Bt * m.g_winv.asDiagonal() * B)) : Auu;
     m.Bt_g = gam > 0 ? RowMatrix(m.Bt + RowMatrix(m.Bt * m.g_winv.asDiagonal() * C)) : m.Bt;
-    // Shat = diag(B |diag(A_g)|^-1 B^T) - diag(C) ~ -(C - B A_g^-1 B_g^T), the SIMPLE diagonal of T K.
-    m.schur = simple_diagonal(Ag.diagonal()) - C.diagonal();
-    for (Eigen::Index i = 0; i < np; ++i)
-      if (!(m.schur[i] > 0)) m.schur[i] = W[i];
     const bool sparse_schur = iterative_.schur == IterativeOptions::Schur::kSparse ||
                               (iterative_.schur == IterativeOptions::Schur::kAuto && nu == 3 * np);
-    if (sparse_schur) {
+    if (!sparse_schur) {
+      // Shat = diag(B |diag(A_g)|^-1 B^T) - diag(C) ~ -(C - B A_g^-1 B_g^T), the SIMPLE diagonal of T K.
+      m.schur = simple_diagonal(Ag.diagonal()) - C.diagonal();
+      for (Eigen::Index i = 0; i < np; ++i)
+        if (!(m.schur[i] > 0)) m.schur[i] = W[i];
+    } else {
       // The sparse Schur approximation Shat = B |diag(A_g)|^-1 B^T - C, the matrix whose diagonal is
       // SIMPLE's (Elman et al. 2008, s.3), applied by BoomerAMG V-cycles on it (one function per
       // vertex). It matters for linear tetrahedra: P1-P1 is not inf-sup stable, so pressure modes q
