@@ -25,6 +25,16 @@
 // UMFPACK's time, growth unknowns^1.54 / 1.65 (1e-10) and 1.39 / 1.62 (1e-2): the GMRES iterations
 // grow with the mesh (docs/models.md s.4.8, "Cost").
 //   build/bench/lv3d_beat_bench --benchmark_filter='LinearBySizeAmg/.*/1/'
+// With the pressure stabilisation (BM_Lv3dBeatLinearStabilized, pressure_stabilization 0.1,
+// SIMPLE's diagonal Schur approximation; 1 thread, CPU time, 2026-11-27 19:25-20:20 UTC, second core
+// busy with another size or a test): GMRES + BoomerAMG to 1e-2 with the set-ups carried from step
+// to step, 584 / 3468 / 10 384 / 23 060 unknowns: 2.38 / 22.0 / 126 / 377 s (a set-up per step:
+// 3.04 / 29.9 / 141 / 431 s; unstabilised, per step: 5.29 / 63.1 / 372 s), 7.7 / 9.3 / 11.1 / 12.5
+// GMRES iterations per solve, 49 / 79 / 130 / 131 set-ups; growth unknowns^1.25 / 1.59 / 1.37.
+// UMFPACK with carried factors 0.97 / 14.6 / 76.6 / 198 s (unstabilised 0.77-1.02 / 11.7-14.2 /
+// 50-58 / 166 s: the per-step tau evaluation and more refactorisations), EF 40.71 / 41.96 / 41.16 /
+// 40.95 %. ROW5BENCH docs/models.md s.4.8, "Cost".
+//   build/bench/lv3d_beat_bench --benchmark_filter='LinearStabilized/.*/1/(1/10|2/2)/10/'
 // Earlier the same day (before the carried factors): the fine mesh took 84.9 s on the
 // machine of 2026-11-27 (AMD EPYC, 2.45 GHz, idle), where the code before that day's Newton changes
 // (pattern-only UMFPACK analysis, w1 frozen with the factors, residual-only stress, Broyden
@@ -116,6 +126,7 @@ void beat(benchmark::State& st, LeftVentricle3DOptions o, int threads) {
   st.counters["newton"] = r.info.newton_iterations;
   st.counters["cuts"] = r.info.step_cuts;
   st.counters["factorizations"] = r.info.factorizations;
+  st.counters["gmres"] = static_cast<double>(r.info.linear_iterations);
   if (r.status.ok()) {
     const Eigen::VectorXd V = r.trajectory.channel("V_lv");
     st.counters["EF_percent"] = 100.0 * (1.0 - V.minCoeff() / V.maxCoeff());
@@ -152,37 +163,50 @@ void BM_Lv3dBeatBySizeAmg(benchmark::State& st) {
   beat(st, o, static_cast<int>(st.range(3)));
 }
 // Linear tetrahedra (element_order 1, P1-P1 with a 10 MPa bulk modulus, one quadrature point;
+// docs/models.md s.4.8, "Linear tetrahedra") on the mesh (n_transmural, n_longitudinal,
+// n_circumferential) of the first three arguments.
+LeftVentricle3DOptions linear_mesh(const benchmark::State& st) {
+  LeftVentricle3DOptions o;
+  o.n_transmural = static_cast<int>(st.range(0));
+  o.n_longitudinal = static_cast<int>(st.range(1));
+  o.n_circumferential = static_cast<int>(st.range(2));
+  o.element_order = 1;
+  o.bulk_modulus = 1e7;
+  o.quadrature_degree = 1;
+  return o;
+}
+// Linear tetrahedra (element_order 1, P1-P1 with a 10 MPa bulk modulus, one quadrature point;
 // docs/models.md s.4.8, "Linear tetrahedra"), UMFPACK: arguments (n_transmural, n_longitudinal,
 // n_circumferential, threads, Broyden updates of the chord iterations 1 (default) or 0, factors
 // carried from step to step 1 (default) or 0). The fine
 // preset (3, 18, 36) has 11 340 tetrahedra, the size of the target.
 void BM_Lv3dBeatLinearBySize(benchmark::State& st) {
-  LeftVentricle3DOptions o;
-  o.n_transmural = static_cast<int>(st.range(0));
-  o.n_longitudinal = static_cast<int>(st.range(1));
-  o.n_circumferential = static_cast<int>(st.range(2));
+  LeftVentricle3DOptions o = linear_mesh(st);
   o.broyden = st.range(4) != 0;
   o.carry_factors = st.range(5) != 0;
-  o.element_order = 1;
-  o.bulk_modulus = 1e7;
-  o.quadrature_degree = 1;
   o.linear_solver = LinearSolver::kUmfPack;
   beat(st, o, static_cast<int>(st.range(3)));
 }
 // The same linear tetrahedra with the iterative solver (GMRES + BoomerAMG with the sparse Schur
 // approximation, model/fem/solver.h): arguments (n_transmural, n_longitudinal, n_circumferential,
-// threads, k) with linear_tolerance 10^-k (10: the default; 2: an inexact Newton method). No
-// factors are carried (the AMG set-up is per step).
+// threads, k) with linear_tolerance 10^-k (10: the default; 2: an inexact Newton method). The
+// frozen tangent and its AMG set-up are carried from step to step like the direct solver's factors
+// (since 2026-11-27 evening; the figures above are from before, a set-up at every step).
 void BM_Lv3dBeatLinearBySizeAmg(benchmark::State& st) {
-  LeftVentricle3DOptions o;
-  o.n_transmural = static_cast<int>(st.range(0));
-  o.n_longitudinal = static_cast<int>(st.range(1));
-  o.n_circumferential = static_cast<int>(st.range(2));
-  o.element_order = 1;
-  o.bulk_modulus = 1e7;
-  o.quadrature_degree = 1;
+  LeftVentricle3DOptions o = linear_mesh(st);
   o.linear_solver = LinearSolver::kAmg;
   o.linear_tolerance = std::pow(10.0, -static_cast<double>(st.range(4)));
+  beat(st, o, static_cast<int>(st.range(3)));
+}
+// Linear tetrahedra with the Brezzi-Pitkaranta pressure stabilisation (element_order 1,
+// pressure_stabilization alpha; docs/models.md s.4.4): arguments (n_transmural, n_longitudinal,
+// n_circumferential, threads, solver 1 UMFPACK (factors carried) or 2 GMRES + BoomerAMG with
+// SIMPLE's diagonal Schur approximation, k: linear_tolerance 10^-k, 100 alpha).
+void BM_Lv3dBeatLinearStabilized(benchmark::State& st) {
+  LeftVentricle3DOptions o = linear_mesh(st);
+  o.linear_solver = kSolvers[st.range(4)];
+  o.linear_tolerance = std::pow(10.0, -static_cast<double>(st.range(5)));
+  o.pressure_stabilization = 0.01 * static_cast<double>(st.range(6));
   beat(st, o, static_cast<int>(st.range(3)));
 }
 // The passive inflation plus the first 10 time steps of the beat (isovolumic contraction, the
@@ -245,6 +269,16 @@ BENCHMARK(BM_Lv3dBeatLinearBySizeAmg)
     ->ArgsProduct({{2}, {12}, {24}, {1, 2}, {10, 2}})
     ->ArgsProduct({{3}, {18}, {36}, {1, 2}, {10, 2}})
     ->ArgsProduct({{4}, {24}, {48}, {1}, {10, 2}})
+    ->Unit(benchmark::kSecond)
+    ->Iterations(1)
+    ->UseRealTime();
+
+BENCHMARK(BM_Lv3dBeatLinearStabilized)
+    ->ArgsProduct({{1}, {6}, {12}, {1}, {1, 2}, {10, 2}, {0, 3, 10, 30}})
+    ->ArgsProduct({{2}, {12}, {24}, {1}, {1, 2}, {10, 2}, {0, 10, 30}})
+    ->ArgsProduct({{3}, {18}, {36}, {1}, {1, 2}, {10, 2}, {0, 10}})
+    ->ArgsProduct({{4}, {24}, {48}, {1}, {1, 2}, {2}, {10}})
+    ->ArgsProduct({{5}, {30}, {60}, {1}, {1, 2}, {2}, {10}})
     ->Unit(benchmark::kSecond)
     ->Iterations(1)
     ->UseRealTime();

@@ -125,6 +125,7 @@ struct RunInfo {
   int newton_iterations = 0;        // total over the run
   int step_cuts = 0;                // how often the time step was halved to recover
   int factorizations = 0;           // of a Newton tangent, total over the run (0: not counted)
+  long long linear_iterations = 0;  // of an iterative linear solver, total over the run (0: none)
 };
 
 struct RunResult {

@@ -82,6 +82,10 @@ std::string LeftVentricle3DOptions::validate() const {
   if (!(bulk_modulus >= 0) || std::isinf(bulk_modulus)) return "bulk_modulus must be finite and >= 0 [Pa]";
   if (element_order == 1 && !(bulk_modulus > 0))
     return "bulk_modulus must be > 0 with element_order 1 (P1-P1 is not inf-sup stable at exact incompressibility)";
+  if (!(pressure_stabilization >= 0) || std::isinf(pressure_stabilization))
+    return "pressure_stabilization must be finite and >= 0";
+  if (pressure_stabilization > 0 && element_order != 1)
+    return "pressure_stabilization needs element_order 1 (Taylor-Hood tetrahedra are inf-sup stable)";
   if (quadrature_degree != 1 && quadrature_degree != 2 && quadrature_degree != 5)
     return "quadrature_degree must be 1, 2 or 5";
   if (quadrature_degree == 1 && element_order != 1)
@@ -273,7 +277,7 @@ struct LeftVentricle3D::Impl {
   BcsPassiveParameters mech_passive{-1, -1, -1, -1};
   BaseCondition base = BaseCondition::kSliding;
   LeftVentricle3DOptions options;
-  std::unique_ptr<SparseSolver> lu;  // the direct solver, its pattern analysed once (step())
+  std::unique_ptr<SparseSolver> lu;  // the linear solver of step(): direct (pattern analysed once) or kAmg
   // Factors carried from one step to the next inside run() (LeftVentricle3DOptions::carry_factors):
   // `carry` is set by run() only; `carried` says lu holds the factors of an earlier step of this
   // run, of step length carried_h, with w1 = K^-1 b of that point.
@@ -288,12 +292,14 @@ struct LeftVentricle3D::Impl {
   double hist_Pv = 0.0, hist_Par = 0.0, hist_h = 0.0;
   std::vector<Eigen::Matrix3d> hist_E;
   int factorizations = 0;  // since the start of the run, for RunInfo::factorizations
+  long long linear_iterations = 0;  // GMRES iterations since the start of the run (RunInfo)
 
   Mechanics& mechanics(const BcsPassiveParameters& p) {
     if (!mech || p.c1 != mech_passive.c1 || p.c2 != mech_passive.c2 || p.c_exp != mech_passive.c_exp ||
         p.b_exp != mech_passive.b_exp) {
       MechanicsOptions mo;
       mo.bulk_modulus = options.bulk_modulus;
+      mo.pressure_stabilization = options.pressure_stabilization;
       mo.quadrature_degree = options.quadrature_degree;
       mo.pressure_surfaces = {kEndocardium};
       mo.load_steps = options.inflation_steps;
@@ -496,7 +502,7 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
 
   // Factors carried from the previous step of this run (same step length): the step starts
   // with them as stale chord factors, and its first iterate is assembled without the tangent.
-  const bool use_carried = carry && carried && carried_h == h && options.linear_solver != LinearSolver::kAmg;
+  const bool use_carried = carry && carried && carried_h == h;
   carried = false;
   Eval cur;
   cur.ms = xo.ms;
@@ -508,6 +514,14 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
     cur.ms.p += r * (xo.ms.p - hist_p);
     cur.Pv += r * (xo.Pv - hist_Pv);
     cur.Par += r * (xo.Par - hist_Par);
+  }
+  if (options.pressure_stabilization > 0) {
+    // tau of the stabilisation from the step's start point u^n with this step's active and viscous
+    // stiffness (Mechanics::update_stabilization): a function of the step's inputs, the same in
+    // run() and advance(). The hook's side effects are harmless here: E^n is u^n's strain either
+    // way, and the evaluations below overwrite the trial states.
+    want_tangent = true;
+    mc.update_stabilization(xo.ms, Load{xo.Pv, 0.0}, hook);
   }
   if (!evaluate(cur, !use_carried)) {
     if (!predict) return -1;
@@ -532,19 +546,19 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
   // analysis serves the object's life and every factorisation is a function of the tangent alone.
   // UMFPACK's BLAS kernels round differently with the alignment of its workspace, so its runs in
   // different threads differ by about 1e-6 relative: SparseLU is the default for bitwise
-  // reproducible runs. The iterative solver (kAmg, solver.h) gets a fresh object per step; its
-  // set-up and GMRES depend on the tangent alone (hypre serial, no OpenMP), so it gives the same
-  // bits in every thread.
-  std::unique_ptr<SparseSolver> fresh;
-  if (options.linear_solver != LinearSolver::kAmg) {
-    if (!lu) lu = std::make_unique<SparseSolver>(options.linear_solver);
-  } else {
-    IterativeOptions io;
+  // reproducible runs. The iterative solver (kAmg, solver.h) is carried the same way: its "factors"
+  // are the frozen tangent and the preconditioner set up on it (the AMG hierarchy and the Schur
+  // approximation), which depend on the tangent alone (hypre serial, no OpenMP), so it gives the
+  // same bits in every thread.
+  if (!lu) {
+    MechanicsOptions mo;
+    mo.pressure_stabilization = options.pressure_stabilization;
+    IterativeOptions io = iterative_options_for(mo);
     io.relative_tolerance = options.linear_tolerance;
-    fresh = std::make_unique<SparseSolver>(options.linear_solver, io);
-    fresh->set_saddle_point(static_cast<int>(nu_));
+    lu = std::make_unique<SparseSolver>(options.linear_solver, io);
+    lu->set_saddle_point(static_cast<int>(nu_));
   }
-  SparseSolver& solver = fresh ? *fresh : *lu;
+  SparseSolver& solver = *lu;
   bool factors_fresh = false;  // the factors belong to the current point
   bool have_factors = use_carried;
   Eigen::VectorXd w1;  // K^-1 b at the point of the factorisation
@@ -602,9 +616,11 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
     // of two); the cavity and Windkessel rows stay current, so the valves' switching is followed.
     if (factors_fresh) {
       w1 = solver.solve(cur.b);
+      linear_iterations += solver.iterative_stats().last_iterations;
       if (!w1.allFinite()) return -1;
     }
     const Eigen::VectorXd w0 = solver.solve(-cur.R);
+    linear_iterations += solver.iterative_stats().last_iterations;
     if (!w0.allFinite()) return -1;
     Eigen::Matrix2d A;
     A << cur.c11 - cur.gV.dot(w1), cur.c12, cur.c21, cur.c22;
@@ -1034,6 +1050,7 @@ RunResult LeftVentricle3D::run_checked(const Eigen::Ref<const Eigen::VectorXd>& 
     ~CarryScope() { impl.carry = impl.carried = impl.have_history = false; }
   } carry_scope(*impl_, options_.carry_factors);
   impl_->factorizations = 0;
+  impl_->linear_iterations = 0;
   for (int beat = 1; beat <= options_.max_beats; ++beat) {
     const double t_begin = (beat - 1) * T, t_beat_end = beat * T;
     s.time = t_begin;  // the grid of beat b starts exactly at (b - 1) T
@@ -1055,6 +1072,7 @@ RunResult LeftVentricle3D::run_checked(const Eigen::Ref<const Eigen::VectorXd>& 
     }
     result.info.beats = beat;
     result.info.factorizations = impl_->factorizations;
+    result.info.linear_iterations = impl_->linear_iterations;
     auto& tr = result.trajectory;
     tr.times = Eigen::Map<const Eigen::VectorXd>(times.data(), static_cast<Eigen::Index>(times.size()));
     tr.values.resize(static_cast<Eigen::Index>(rows.size()), static_cast<Eigen::Index>(tr.channels.size()));

@@ -102,6 +102,10 @@ struct LeftVentricle3DOptions {
   // 14:437; docs/models.md s.4.8, "Linear tetrahedra").
   int element_order = 2;
   double bulk_modulus = 0.0;  // [Pa]; 0: incompressible (element_order 2 only)
+  // Brezzi-Pitkaranta pressure stabilisation alpha of the linear tetrahedra (element_order 1 only;
+  // MechanicsOptions::pressure_stabilization): 0 (default) none; with it the iterative solver's
+  // GMRES iterations stop growing with the mesh (docs/models.md s.4.4 and s.4.8, "Cost").
+  double pressure_stabilization = 0.0;
   int n_transmural = 1;
   int n_longitudinal = 6;      // a multiple of 3 puts node rings on the AHA levels
   int n_circumferential = 12;  // a multiple of 6 (nodes on the 60-degree AHA bounds), >= 12

@@ -56,7 +56,18 @@ std::string MechanicsOptions::validate() const {
   if (max_newton_iterations < 1) return "max_newton_iterations must be >= 1";
   if (!(residual_tolerance > 0) || !(volume_tolerance > 0)) return "tolerances must be positive";
   if (max_step_cuts < 0) return "max_step_cuts must be >= 0";
+  if (!(pressure_stabilization >= 0) || std::isinf(pressure_stabilization))
+    return "pressure_stabilization must be finite and >= 0";
+  if (pressure_stabilization > 0 && displacement_only) return "pressure_stabilization needs the pressure unknowns";
   return {};
+}
+
+IterativeOptions iterative_options_for(const MechanicsOptions& o) {
+  IterativeOptions io;
+  // With the stabilisation the Schur complement is bounded below by tau int grad p . grad q on
+  // the spurious modes too, and SIMPLE's diagonal is the better approximation (docs/models.md s.4.4).
+  if (o.pressure_stabilization > 0) io.schur = IterativeOptions::Schur::kDiagonal;
+  return io;
 }
 
 std::string Summary::brief_report() const {
@@ -139,6 +150,49 @@ Mechanics::Mechanics(const Mesh& mesh, std::vector<Frame> frames, std::unique_pt
         opt_.pressure_surfaces.end())
       load_faces_.push_back(static_cast<int>(f));
   build_pattern();
+  if (opt_.pressure_stabilization > 0) {
+    // Brezzi & Pitkaranta 1984 (in Efficient Solutions of Elliptic Systems, Notes Numer. Fluid
+    // Mech. 10:11-19): -tau_e int grad p . grad q dV on the pressure rows of each element, with the
+    // P1 gradients of its four vertices (constant on the element; the pressure is P1 on the
+    // vertices for both element orders).
+    stab_laplacian_.resize(ne);
+    stab_h2_.resize(ne);
+    for (size_t e = 0; e < ne; ++e) {
+      Eigen::Matrix3d J0;
+      for (int c = 0; c < 3; ++c)
+        J0.col(c) = (mesh_.nodes.row(mesh_.tets(static_cast<Eigen::Index>(e), c + 1)) -
+                     mesh_.nodes.row(mesh_.tets(static_cast<Eigen::Index>(e), 0)))
+                        .transpose();
+      const double vol = J0.determinant() / 6.0;
+      Eigen::Matrix<double, 4, 3> dxi;  // d(lambda_k)/d(xi)
+      dxi << -1, -1, -1, 1, 0, 0, 0, 1, 0, 0, 0, 1;
+      const Eigen::Matrix<double, 4, 3> G = dxi * J0.inverse();
+      stab_laplacian_[e] = vol * G * G.transpose();
+      // Edge of the regular tetrahedron of volume vol: vol = a^3 / (6 sqrt 2).
+      stab_h2_[e] = std::pow(6.0 * std::sqrt(2.0) * vol, 2.0 / 3.0);
+    }
+    stab_mu_ref_.assign(ne, 0.0);
+    stab_tau_.assign(ne, 0.0);
+    std::vector<double> mu;
+    if (!assemble_impl(initial_state(), Load{}, nullptr, nullptr, {}, &mu))
+      throw std::invalid_argument("Mechanics: the unloaded reference could not be assembled");
+    for (size_t e = 0; e < ne; ++e) {
+      if (!(mu[e] > 0))
+        throw std::invalid_argument("Mechanics: pressure_stabilization needs a material with a positive shear "
+                                    "stiffness in the reference (element " + std::to_string(e) + ")");
+      stab_mu_ref_[e] = mu[e];
+      stab_tau_[e] = opt_.pressure_stabilization * stab_h2_[e] / (2.0 * mu[e]);
+    }
+  }
+}
+
+bool Mechanics::update_stabilization(const State& s, const Load& load, const StressHook& hook) {
+  if (stab_tau_.empty()) return true;
+  std::vector<double> mu;
+  if (!assemble_impl(s, load, nullptr, nullptr, hook, &mu)) return false;
+  for (size_t e = 0; e < stab_tau_.size(); ++e)
+    stab_tau_[e] = opt_.pressure_stabilization * stab_h2_[e] / (2.0 * std::max(mu[e], stab_mu_ref_[e]));
+  return true;
 }
 
 void Mechanics::build_pattern() {
@@ -262,6 +316,12 @@ std::vector<Frame> Mechanics::element_frames() const {
 
 bool Mechanics::assemble(const State& s, const Load& load, Eigen::VectorXd* residual, SparseMatrix* tangent,
                          const StressHook& hook) const {
+  return assemble_impl(s, load, residual, tangent, hook, nullptr);
+}
+
+bool Mechanics::assemble_impl(const State& s, const Load& load, Eigen::VectorXd* residual, SparseMatrix* tangent,
+                              const StressHook& hook, std::vector<double>* element_mu) const {
+  if (element_mu) element_mu->assign(static_cast<size_t>(mesh_.n_tets()), 0.0);
   const int nv = mesh_.n_nodes();
   const int nloc = 3 * npt_ + 4;
   const bool incompressible = !(opt_.bulk_modulus > 0) || std::isinf(opt_.bulk_modulus);
@@ -293,6 +353,7 @@ bool Mechanics::assemble(const State& s, const Load& load, Eigen::VectorXd* resi
       for (int q = 0; q < 4; ++q) pe[q] = s.p[mesh_.tets(e, q)];
       Re.setZero();
       if (tangent) Ke.setZero();
+      double grad2 = 0.0, element_diag = 0.0;  // sum_q sum_a |grad N_a|^2 dV, the diagonal (element_mu)
       const double ta = load.active_tension * active_scale_[static_cast<size_t>(e)];
       for (int q = 0; q < nqp_; ++q) {
         const size_t eq = static_cast<size_t>(e) * static_cast<size_t>(nqp_) + static_cast<size_t>(q);
@@ -307,7 +368,7 @@ bool Mechanics::assemble(const State& s, const Load& load, Eigen::VectorXd* resi
           break;
         }
         const Eigen::Matrix3d E = 0.5 * (F.transpose() * F - I3);
-        if (tangent) {
+        if (tangent || element_mu) {
           material_->stress(E, R, S, D);
         } else {
           material_->stress_only(E, R, S);
@@ -325,6 +386,22 @@ bool Mechanics::assemble(const State& s, const Load& load, Eigen::VectorXd* resi
           for (int i = 0; i < 3; ++i) Re[3 * a + i] += dV * gP(a, i);
         const double pen = pressure_mass_.empty() ? pq * inv_kappa : 0.0;  // else below, exactly
         for (int k = 0; k < 4; ++k) Re[3 * npt_ + k] -= dV * ((J - 1.0) + pen) * Np[k];
+        if (element_mu) {
+          // The displacement diagonal of the element tangent, sum_a sum_i g_a^T A_i g_a with the
+          // 3x3 blocks A_i(I, J) = A(iI, iJ) = sum_KL F_iK D(KI, LJ) F_iL + S_IJ (the pressure's
+          // geometric term vanishes on them), without the rest of the element matrix.
+          double diag = 0.0;
+          for (int i = 0; i < 3; ++i) {
+            Eigen::Matrix3d Ai = S;
+            for (int I = 0; I < 3; ++I)
+              for (int Jj = 0; Jj < 3; ++Jj)
+                for (int K = 0; K < 3; ++K)
+                  for (int L = 0; L < 3; ++L) Ai(I, Jj) += F(i, K) * D(3 * K + I, 3 * L + Jj) * F(i, L);
+            for (int a = 0; a < npt_; ++a) diag += g.row(a) * Ai * g.row(a).transpose();
+          }
+          element_diag += dV * diag;
+          grad2 += dV * g.squaredNorm();
+        }
         if (!tangent) continue;
         // A(iI, jJ) = delta_ij S_IJ + F_iK D(KI, LJ) F_jL - p J (FiT_iI FiT_jJ - FiT_iJ FiT_jI).
         for (int i = 0; i < 3; ++i)
@@ -370,6 +447,13 @@ bool Mechanics::assemble(const State& s, const Load& load, Eigen::VectorXd* resi
         Re.tail<4>() -= inv_kappa * (Mp * pe);
         if (tangent) Ke.bottomRightCorner<4, 4>() -= inv_kappa * Mp;
       }
+      if (!stab_tau_.empty()) {
+        const double tau = stab_tau_[static_cast<size_t>(e)];
+        const Eigen::Matrix4d& Lp = stab_laplacian_[static_cast<size_t>(e)];
+        Re.tail<4>() -= tau * (Lp * pe);
+        if (tangent) Ke.bottomRightCorner<4, 4>() -= tau * Lp;
+      }
+      if (element_mu) (*element_mu)[static_cast<size_t>(e)] = element_diag / (4.0 * grad2);
       if (residual) {
         // No two elements of a colour share a node: plain adds, no race, a fixed order.
         for (int a = 0; a < npt_; ++a)
@@ -465,7 +549,7 @@ Eigen::VectorXd Mechanics::pressure_load(const State& s) const {
 Summary Mechanics::solve(State& state, const Load& from, const Load& to, const ProgressCallback& progress) {
   Summary sum;
   const int nu = 3 * mesh_.n_nodes();
-  SparseSolver solver(opt_.linear_solver);
+  SparseSolver solver(opt_.linear_solver, iterative_options_for(opt_));
   solver.set_saddle_point(nu);
   Eigen::VectorXd R;
   SparseMatrix K;
@@ -482,6 +566,8 @@ Summary Mechanics::solve(State& state, const Load& from, const Load& to, const P
   while (lam < 1.0 - 1e-14) {
     const double target = std::min(1.0, lam + dlam);
     const Load L = load_at(target);
+    // tau of the stabilisation from the step's start point (a no-op without it).
+    update_stabilization(state, load_at(lam));
     State trial = state;
     // Secant predictor: extrapolate the last converged increment to the new load fraction.
     if (have_prev && lam - prev_lam > 0) {

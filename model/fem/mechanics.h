@@ -52,8 +52,18 @@ struct MechanicsOptions {
   double volume_tolerance = 1e-10;   // |R_p| relative to the reference volume
   int max_step_cuts = 6;             // halvings of a load increment after a failed Newton solve
   LinearSolver linear_solver = LinearSolver::kAuto;
+  // Pressure stabilisation alpha >= 0 (0: none), for equal-order P1-P1 elements, which are not
+  // inf-sup stable: the pressure rows get -tau_e int grad p . grad q dV per element, the
+  // Brezzi-Pitkaranta term with tau_e = alpha h_e^2 / (2 mu_e), h_e the edge of the regular
+  // tetrahedron of the element's volume and mu_e the element's current shear stiffness read from
+  // its tangent (update_stabilization; docs/models.md s.4.4, "Pressure stabilisation").
+  double pressure_stabilization = 0.0;
   std::string validate() const;
 };
+
+// The iterative solver's options for these mechanics options (the Schur approximation follows
+// the stabilisation: solver.h, docs/models.md s.4.4).
+IterativeOptions iterative_options_for(const MechanicsOptions& o);
 
 struct Load {
   double pressure = 0.0;        // [Pa] follower pressure on pressure_surfaces (cavity side)
@@ -136,6 +146,18 @@ class Mechanics {
   // converged state on return.
   Summary solve(State& state, const Load& from, const Load& to, const ProgressCallback& progress = {});
 
+  // Pressure stabilisation (MechanicsOptions::pressure_stabilization > 0; a no-op otherwise):
+  // recomputes tau_e = alpha h_e^2 / (2 mu_e) from the element tangents at (s, load, hook), mu_e =
+  // sum of the element's displacement diagonal / (4 sum_a int |grad N_a|^2 dV) (the shear modulus
+  // mu of an isotropic law with no bulk part, whose diagonal is (4 mu) int |grad N_a|^2 dV per
+  // node), at least its value in the unloaded reference (passive material alone). The constructor
+  // computes that reference value; solve() updates tau at each load step's start and the heartbeat
+  // at each time step's start, so tau is a function of the step's start point. Returns false when
+  // the assembly at s failed (tau unchanged).
+  bool update_stabilization(const State& s, const Load& load, const StressHook& hook = {});
+  // tau_e per tetrahedron [m^2/Pa] (empty without stabilisation).
+  const std::vector<double>& stabilization_tau() const { return stab_tau_; }
+
   // Current position of node n.
   Eigen::Vector3d position(const State& s, int node) const;
   // Fibre frame at the centroid of each tetrahedron (first quadrature point's frame when given
@@ -144,6 +166,9 @@ class Mechanics {
 
  private:
   void build_pattern();
+  // assemble(); with element_mu, also each element's shear stiffness (update_stabilization).
+  bool assemble_impl(const State& s, const Load& load, Eigen::VectorXd* residual, SparseMatrix* tangent,
+                     const StressHook& hook, std::vector<double>* element_mu) const;
 
   Mesh mesh_;
   std::vector<Frame> frames_;
@@ -158,6 +183,10 @@ class Mechanics {
   std::vector<double> dv_;
   std::vector<Eigen::Vector4d> np_;  // per qp, P1 shape values
   std::vector<Eigen::Matrix4d> pressure_mass_;  // per element, int N_k N_l dV (one-point rules only)
+  // Pressure stabilisation: per element V_e G_e G_e^T (G_e the vertex P1 gradients, 4 x 3), h_e^2
+  // [m^2], the reference shear stiffness mu_e [Pa] and tau_e [m^2/Pa].
+  std::vector<Eigen::Matrix4d> stab_laplacian_;
+  std::vector<double> stab_h2_, stab_mu_ref_, stab_tau_;
   std::vector<int> load_faces_;      // indices into mesh.faces
   SparseMatrix pattern_;
   std::vector<int> elem_pos_;  // value positions per element local (nloc x nloc)

@@ -100,6 +100,14 @@ TEST(Lv3dRegistration, BadNumericsAreReportedAtTheirKey) {
             "stable at exact incompressibility)");
   EXPECT_EQ(error_of({{"bulk_modulus", "-1"}}),
             "bulk_modulus: simulator.numerics: bulk_modulus must be finite and >= 0 [Pa]");
+  EXPECT_EQ(error_of({{"pressure_stabilization", "0.1"}}),
+            "pressure_stabilization: simulator.numerics: pressure_stabilization needs element_order 1 (Taylor-Hood "
+            "tetrahedra are inf-sup stable)");
+  EXPECT_EQ(error_of({{"element_order", "1"}, {"bulk_modulus", "1e7"}, {"pressure_stabilization", "-1"}}),
+            "pressure_stabilization: simulator.numerics: pressure_stabilization must be finite and >= 0");
+  EXPECT_EQ(read_lv3d_options(MapOptions({{"element_order", "1"}, {"bulk_modulus", "1e7"}, {"pressure_stabilization", "0.1"}}))
+                .pressure_stabilization,
+            0.1);
   const LeftVentricle3DOptions linear =
       read_lv3d_options(MapOptions({{"element_order", "1"}, {"bulk_modulus", "1e7"}}));
   EXPECT_EQ(linear.element_order, 1);

@@ -104,6 +104,61 @@ TEST(Mechanics, LinearOnePointRuleKeepsTheExactPressureMass) {
   EXPECT_EQ(Eigen::MatrixXd(K1).rows(), nu + np);
 }
 
+// The Brezzi-Pitkaranta pressure stabilisation (MechanicsOptions::pressure_stabilization):
+// (i) tau_e = alpha h_e^2 / (2 mu_e) with mu_e read from the element tangent is exact for an
+// isotropic law without bulk part: Guccione with bf = bt = bfs = b on the full strain is W = C/2
+// (exp(b E:E) - 1), shear modulus mu = C b / 2 in the unloaded reference, so tau_e = alpha h_e^2 /
+// (C b), with h_e^2 = (6 sqrt 2 V_e)^(2/3); (ii) the term vanishes on constant pressures (a
+// hydrostatic state is not perturbed) and adds -tau_e int grad N_k . grad N_l dV to the tangent,
+// which stays consistent; (iii) update_stabilization follows the stiffening of a loaded state.
+TEST(Mechanics, PressureStabilisationIsTheBrezziPitkarantaTermWithTheTangentsShearModulus) {
+  const Mesh mesh = box_mesh(2e-3, 1e-3, 1e-3, 2, 1, 1, 1);
+  auto make = [&](double alpha) {
+    MechanicsOptions o;
+    o.bulk_modulus = 5e4;
+    o.quadrature_degree = 1;
+    o.pressure_surfaces = {kBottom};
+    o.pressure_stabilization = alpha;
+    GuccioneParameters gp{4e3, 3.0, 3.0, 3.0};
+    gp.isochoric = false;
+    return Mechanics(mesh, uniform_fibres(mesh, Eigen::Vector3d(1, 0.3, 0.2), Eigen::Vector3d::UnitY()),
+                     std::make_unique<Guccione>(gp), o);
+  };
+  const double alpha = 0.3;
+  Mechanics plain = make(0.0), stab = make(alpha);
+  EXPECT_TRUE(plain.stabilization_tau().empty());
+  ASSERT_EQ(stab.stabilization_tau().size(), static_cast<size_t>(mesh.n_tets()));
+  for (Eigen::Index e = 0; e < mesh.n_tets(); ++e) {
+    Eigen::Matrix3d J0;
+    for (int c = 0; c < 3; ++c) J0.col(c) = (mesh.nodes.row(mesh.tets(e, c + 1)) - mesh.nodes.row(mesh.tets(e, 0))).transpose();
+    const double h2 = std::pow(std::sqrt(2.0) * J0.determinant(), 2.0 / 3.0);  // (6 sqrt 2 V)^(2/3), V = det/6
+    const double expected = alpha * h2 / (4e3 * 3.0);
+    EXPECT_NEAR(stab.stabilization_tau()[static_cast<size_t>(e)], expected, 1e-12 * expected) << "element " << e;
+  }
+  // (ii) Constant pressure on a strained state: the same residual; the tangents differ by the
+  // stabilisation block only, and the stabilised tangent is consistent.
+  State s = random_state(plain, 2e-5, 0.0, 5);
+  s.p.setConstant(1.5e3);
+  Eigen::VectorXd Rp, Rs;
+  SparseMatrix Kp, Ks;
+  ASSERT_TRUE(plain.assemble(s, Load{2e3, 1e3}, &Rp, &Kp));
+  ASSERT_TRUE(stab.assemble(s, Load{2e3, 1e3}, &Rs, &Ks));
+  EXPECT_LT((Rs - Rp).norm(), 1e-12 * Rp.norm());
+  const int nu = 3 * mesh.n_nodes(), np = mesh.n_vertices;
+  const Eigen::MatrixXd dK = Eigen::MatrixXd(Ks) - Eigen::MatrixXd(Kp);
+  EXPECT_EQ(dK.topRows(nu).norm(), 0.0);
+  EXPECT_EQ(dK.leftCols(nu).norm(), 0.0);
+  EXPECT_LT(dK.bottomRightCorner(np, np).rowwise().sum().norm(), 1e-12 * dK.norm());  // kills constants
+  EXPECT_LT(dK.bottomRightCorner(np, np).eigenvalues().real().maxCoeff(), 1e-12 * dK.norm());  // -tau L <= 0
+  EXPECT_LT(tangent_error(stab, random_state(stab, 5e-5, 1e3, 6), Load{2e3, 1e3}), 1e-6);
+  // (iii) A stretched state is stiffer (exponential law): update_stabilization lowers tau; it
+  // never raises it above the reference value.
+  const std::vector<double> tau0 = stab.stabilization_tau();
+  ASSERT_TRUE(stab.update_stabilization(random_state(stab, 1e-4, 0.0, 7), Load{}));
+  for (size_t e = 0; e < tau0.size(); ++e) EXPECT_LE(stab.stabilization_tau()[e], tau0[e]) << "element " << e;
+  EXPECT_LT(stab.stabilization_tau()[0], 0.999 * tau0[0]);
+}
+
 TEST(Mechanics, FollowerPressureOnAClosedSurfaceHasNoNetForce) {
   // A cube loaded by pressure on all faces: the resultant of the traction vanishes in any
   // configuration (closed surface), so the residual sums to zero per direction.
