@@ -140,9 +140,12 @@ int run_simulate(const SimulateOptions& o, CommandContext& ctx) {
     throw RunFailure("simulation of '" + config.name + "' failed (" +
                      model::to_string(result.status.code) + "): " + result.status.message);
   }
-  spdlog::info("periodic after {} beats (change {:.2e}), {} Newton iterations, {} step cuts",
+  spdlog::info("periodic after {} beats (change {:.2e}), {} Newton iterations, {} step cuts{}",
                result.info.beats, result.info.periodicity_change, result.info.newton_iterations,
-               result.info.step_cuts);
+               result.info.step_cuts,
+               result.info.linear_iterations > 0
+                   ? fmt::format(", {} GMRES iterations", result.info.linear_iterations)
+                   : std::string());
   const auto indicators = simulate_indicators(result, simulator->channels());
 
   fill_provenance(prov, config, ctx, "simulate", omp_get_max_threads(), 1);
