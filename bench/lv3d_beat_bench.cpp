@@ -33,7 +33,10 @@
 // GMRES iterations per solve, 49 / 79 / 130 / 131 set-ups; growth unknowns^1.25 / 1.59 / 1.37.
 // UMFPACK with carried factors 0.97 / 14.6 / 76.6 / 198 s (unstabilised 0.77-1.02 / 11.7-14.2 /
 // 50-58 / 166 s: the per-step tau evaluation and more refactorisations), EF 40.71 / 41.96 / 41.16 /
-// 40.95 %. ROW5BENCH docs/models.md s.4.8, "Cost".
+// 40.95 %. (5, 30, 60), 43 224 unknowns, both cores loaded by two other jobs: AMG carried 1034 s,
+// 14.3 GMRES iterations per solve, 140 set-ups (growth ^1.61, an upper bound); UMFPACK 580 s, 87
+// factorisations (the other core busy). docs/models.md
+// s.4.8, "Cost".
 //   build/bench/lv3d_beat_bench --benchmark_filter='LinearStabilized/.*/1/(1/10|2/2)/10/'
 // Earlier the same day (before the carried factors): the fine mesh took 84.9 s on the
 // machine of 2026-11-27 (AMD EPYC, 2.45 GHz, idle), where the code before that day's Newton changes
