@@ -519,9 +519,8 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
     // tau of the stabilisation from the step's start point u^n with this step's active and viscous
     // stiffness (Mechanics::update_stabilization): a function of the step's inputs, the same in
     // run() and advance(). The hook's side effects are harmless here: E^n is u^n's strain either
-    // way, and the evaluations below overwrite the trial states. u^n assembled when its step
-    // converged, so this cannot fail short of a BCS state the step's activation rejects; tau then
-    // keeps its last values and the evaluation below reports the failure (a step cut).
+    // way, and the evaluations below overwrite the trial states. u^n is a converged point (every
+    // J > 0), so the assembly succeeds; a BCS state the hook rejects is the evaluations' to report.
     want_tangent = true;
     mc.update_stabilization(xo.ms, Load{xo.Pv, 0.0}, hook);
   }
