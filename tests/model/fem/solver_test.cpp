@@ -208,9 +208,10 @@ TEST(SparseSolver, SparseSchurApproximationSolvesLinearTetrahedraInAFractionOfTh
 // unstabilised sparse form above. Each solution lands on the direct one.
 TEST(SparseSolver, StabilisedLinearTetrahedraNeedIterationsIndependentOfTheMesh) {
   if (!linear_solver_available(LinearSolver::kAmg)) GTEST_SKIP() << "built without hypre";
-  int stabilised[3], plain[3];
+  int stabilised[3] = {0, 0, 0}, plain[3] = {0, 0, 0};
   for (int refinement : {1, 2, 3}) {
     for (const double alpha : {0.1, 0.0}) {
+      if (alpha == 0.0 && refinement == 3) continue;  // 345 iterations, measured: too dear for the fast tier
       auto mech = linear_land_mechanics(refinement, alpha);
       const NewtonSystem sys(*mech);
       SparseSolver lu(LinearSolver::kSparseLU);
@@ -223,20 +224,20 @@ TEST(SparseSolver, StabilisedLinearTetrahedraNeedIterationsIndependentOfTheMesh)
       double error = 0.0;
       const int iterations = gmres_to_1e8(sys, io, direct, &error);
       // As above, the conditioning (kappa / mu ~ 1e3) bounds the error reachable from a 1e-8
-      // residual. Measured: stabilised 1.0e-6 at K = 3; the unstabilised tangent there 1.5e-5,
-      // which the test above covers up to K = 2.
-      if (alpha > 0 || refinement < 3) EXPECT_LT(error, 1e-5) << "K = " << refinement;
+      // residual. Measured: stabilised 1.0e-6 at K = 3 (the unstabilised tangent there 1.5e-5).
+      EXPECT_LT(error, 1e-5) << "K = " << refinement;
       (alpha > 0 ? stabilised : plain)[refinement - 1] = iterations;
     }
     std::printf("K = %d: GMRES iterations stabilised (diagonal Schur) %d, unstabilised (sparse Schur) %d\n",
-                refinement, stabilised[refinement - 1], plain[refinement - 1]);
+                refinement, stabilised[refinement - 1], refinement < 3 ? plain[refinement - 1] : 0);
   }
   // Measured (2026-11-27): alpha 0.1 24 / 43 / 45, unstabilised 112 / 164 / 345 (alpha 0.03: 28 /
   // 46 / 53; 0.3: 34 / 48 / 75; 1: 41 / 90 / 285, the Laplacian then dominating the Schur
   // complement, which a diagonal does not approximate). From K = 2 to 3 (3x the unknowns) the
-  // stabilised count grows by less than 30 %, and at K = 3 it is under a quarter of the other.
+  // stabilised count grows by less than 30 %, and at K = 3 it is under a third of the unstabilised
+  // count on the K = 2 mesh (the K = 3 one, 345, is not run here: it costs most of the test).
   EXPECT_LT(stabilised[2], 1.3 * stabilised[1]);
-  EXPECT_LT(4 * stabilised[2], plain[2]);
+  EXPECT_LT(3 * stabilised[2], plain[1]);
 }
 
 TEST(SparseSolver, AmgGivesTheSameBitsInRepeatedSolvesAndAnyThreadCount) {
@@ -397,37 +398,6 @@ TEST(SparseSolver, Lv3dStabilisedLinearTetrahedraFirstStepsAgreeWithTheDirectSol
   expect_lands_on_direct(after_ten_steps(linear_lv3d(0.1, LinearSolver::kAmg)), direct);
   const Eigen::VectorXd plain = after_ten_steps(linear_lv3d(0.0, LinearSolver::kSparseLU));
   EXPECT_GT(std::abs(plain(1) - direct(1)), 1e-6 * std::abs(direct(1)));
-}
-
-// The iterative solver's preconditioner (the frozen tangent and its AMG set-up) is carried from
-// step to step within run() like the direct solver's factors (carry_factors): the coarse
-// stabilised linear beat with GMRES to 1e-2 lands on the beat with a set-up at every step's first
-// iterate (and no predictor), to the Newton tolerance, with under half the set-ups. Measured
-// 2026-11-27: 49 against 192 set-ups, 980 against 951 Newton iterations, 7 896 against 9 256 GMRES
-// iterations.
-TEST(SparseSolver, CarriedAmgSetUpsGiveTheSameLinearBeat) {
-  if (!linear_solver_available(LinearSolver::kAmg)) GTEST_SKIP() << "built without hypre";
-  RunResult r[2];
-  for (int k = 0; k < 2; ++k) {
-    LeftVentricle3DOptions o = linear_lv3d(0.1, LinearSolver::kAmg);
-    o.linear_tolerance = 1e-2;
-    o.max_beats = 1;
-    o.periodic_tolerance = 1.0;
-    o.carry_factors = k == 0;
-    LeftVentricle3D lv(o);
-    r[k] = lv.run(lv.parameters().nominal());
-    ASSERT_TRUE(r[k].status.ok()) << r[k].status.message;
-  }
-  ASSERT_EQ(r[0].trajectory.times.size(), r[1].trajectory.times.size());
-  for (const char* name : {"V_lv", "P_lv", "P_ar", "V_seg05"}) {
-    const Eigen::VectorXd a = r[0].trajectory.channel(name), b = r[1].trajectory.channel(name);
-    EXPECT_LT((a - b).cwiseAbs().maxCoeff(), 1e-7 * b.cwiseAbs().maxCoeff()) << name;
-  }
-  EXPECT_LT(2 * r[0].info.factorizations, r[1].info.factorizations);
-  EXPECT_GT(r[0].info.linear_iterations, 0);
-  std::printf("AMG set-ups carried %d / fresh %d, Newton iterations %d / %d, GMRES iterations %lld / %lld\n",
-              r[0].info.factorizations, r[1].info.factorizations, r[0].info.newton_iterations,
-              r[1].info.newton_iterations, r[0].info.linear_iterations, r[1].info.linear_iterations);
 }
 
 }  // namespace
