@@ -552,9 +552,7 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
   // approximation), which depend on the tangent alone (hypre serial, no OpenMP), so it gives the
   // same bits in every thread.
   if (!lu) {
-    MechanicsOptions mo;
-    mo.pressure_stabilization = options.pressure_stabilization;
-    IterativeOptions io = iterative_options_for(mo);
+    IterativeOptions io = iterative_options_for(mc.options());
     io.relative_tolerance = options.linear_tolerance;
     lu = std::make_unique<SparseSolver>(options.linear_solver, io);
     lu->set_saddle_point(static_cast<int>(nu_));

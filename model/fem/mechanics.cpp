@@ -157,6 +157,9 @@ Mechanics::Mechanics(const Mesh& mesh, std::vector<Frame> frames, std::unique_pt
     // vertices for both element orders).
     stab_laplacian_.resize(ne);
     stab_h2_.resize(ne);
+    Eigen::VectorXd N1;
+    Eigen::MatrixXd dN1;  // d(lambda_k)/d(xi), constant
+    tet_shape(1, Eigen::Vector3d::Zero(), N1, dN1);
     for (size_t e = 0; e < ne; ++e) {
       Eigen::Matrix3d J0;
       for (int c = 0; c < 3; ++c)
@@ -164,9 +167,7 @@ Mechanics::Mechanics(const Mesh& mesh, std::vector<Frame> frames, std::unique_pt
                      mesh_.nodes.row(mesh_.tets(static_cast<Eigen::Index>(e), 0)))
                         .transpose();
       const double vol = J0.determinant() / 6.0;
-      Eigen::Matrix<double, 4, 3> dxi;  // d(lambda_k)/d(xi)
-      dxi << -1, -1, -1, 1, 0, 0, 0, 1, 0, 0, 0, 1;
-      const Eigen::Matrix<double, 4, 3> G = dxi * J0.inverse();
+      const Eigen::MatrixXd G = dN1 * J0.inverse();  // 4 x 3 vertex P1 gradients
       stab_laplacian_[e] = vol * G * G.transpose();
       // Edge of the regular tetrahedron of volume vol: vol = a^3 / (6 sqrt 2).
       stab_h2_[e] = std::pow(6.0 * std::sqrt(2.0) * vol, 2.0 / 3.0);
@@ -176,22 +177,25 @@ Mechanics::Mechanics(const Mesh& mesh, std::vector<Frame> frames, std::unique_pt
     std::vector<double> mu;
     if (!assemble_impl(initial_state(), Load{}, nullptr, nullptr, {}, &mu))
       throw std::invalid_argument("Mechanics: the unloaded reference could not be assembled");
-    for (size_t e = 0; e < ne; ++e) {
+    for (size_t e = 0; e < ne; ++e)
       if (!(mu[e] > 0))
         throw std::invalid_argument("Mechanics: pressure_stabilization needs a material with a positive shear "
                                     "stiffness in the reference (element " + std::to_string(e) + ")");
-      stab_mu_ref_[e] = mu[e];
-      stab_tau_[e] = opt_.pressure_stabilization * stab_h2_[e] / (2.0 * mu[e]);
-    }
+    stab_mu_ref_ = mu;
+    set_stabilization_tau(mu);
   }
+}
+
+void Mechanics::set_stabilization_tau(const std::vector<double>& mu) {
+  for (size_t e = 0; e < stab_tau_.size(); ++e)
+    stab_tau_[e] = opt_.pressure_stabilization * stab_h2_[e] / (2.0 * std::max(mu[e], stab_mu_ref_[e]));
 }
 
 bool Mechanics::update_stabilization(const State& s, const Load& load, const StressHook& hook) {
   if (stab_tau_.empty()) return true;
   std::vector<double> mu;
   if (!assemble_impl(s, load, nullptr, nullptr, hook, &mu)) return false;
-  for (size_t e = 0; e < stab_tau_.size(); ++e)
-    stab_tau_[e] = opt_.pressure_stabilization * stab_h2_[e] / (2.0 * std::max(mu[e], stab_mu_ref_[e]));
+  set_stabilization_tau(mu);
   return true;
 }
 

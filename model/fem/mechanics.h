@@ -126,6 +126,7 @@ class Mechanics {
   State initial_state() const;
   int n_quadrature_points() const { return nqp_; }
   int n_unknowns() const { return ndof_; }
+  const MechanicsOptions& options() const { return opt_; }
   const Mesh& mesh() const { return mesh_; }
 
   // Residual and tangent in the full numbering (u then p), Dirichlet rows/columns replaced by
@@ -166,6 +167,8 @@ class Mechanics {
 
  private:
   void build_pattern();
+  // tau_e = alpha h_e^2 / (2 max(mu_e, reference mu_e)) from the elements' shear stiffness mu.
+  void set_stabilization_tau(const std::vector<double>& mu);
   // assemble(); with element_mu, also each element's shear stiffness (update_stabilization).
   bool assemble_impl(const State& s, const Load& load, Eigen::VectorXd* residual, SparseMatrix* tangent,
                      const StressHook& hook, std::vector<double>* element_mu) const;
