@@ -60,6 +60,7 @@ std::string IterativeOptions::validate() const {
   if (!(strong_threshold > 0 && strong_threshold < 1)) return "strong_threshold must be in (0, 1)";
   if (!(augmentation >= 0) || !std::isfinite(augmentation)) return "augmentation must be finite and >= 0";
   if (schur_cycles < 1) return "schur_cycles must be >= 1";
+  if (aggressive_levels < 0) return "aggressive_levels must be >= 0";
   return {};
 }
 
@@ -207,8 +208,9 @@ class HypreLock {
 // A serial hypre ParCSR matrix built from a row-major Eigen matrix, and BoomerAMG on it.
 class BoomerAmg {
  public:
-  // `functions` unknowns per node (node-major), `cycles` V-cycles per apply().
-  BoomerAmg(const RowMatrix& A, double strong_threshold, int functions, int cycles) {
+  // `functions` unknowns per node (node-major), `cycles` V-cycles per apply(), the first
+  // `aggressive_levels` levels coarsened aggressively.
+  BoomerAmg(const RowMatrix& A, double strong_threshold, int functions, int cycles, int aggressive_levels = 0) {
     HypreRuntime& rt = hypre_runtime();
     HypreLock lock(rt);
     const HYPRE_BigInt n = static_cast<HYPRE_BigInt>(A.rows());
@@ -247,6 +249,12 @@ class BoomerAmg {
     HYPRE_BoomerAMGSetPMaxElmts(amg_, 4);
     HYPRE_BoomerAMGSetRelaxType(amg_, 8);     // l1-scaled symmetric Gauss-Seidel: a fixed linear operator
     HYPRE_BoomerAMGSetRelaxOrder(amg_, 0);    // lexicographic order: deterministic
+    if (aggressive_levels > 0) {
+      // Aggressive coarsening (HMIS applied twice: C-points need strong paths of length two) with
+      // multipass interpolation on those levels (Yang 2010, s.3; hypre's agg_interp_type 4).
+      HYPRE_BoomerAMGSetAggNumLevels(amg_, aggressive_levels);
+      HYPRE_BoomerAMGSetAggInterpType(amg_, 4);
+    }
     ok_ = HYPRE_BoomerAMGSetup(amg_, par_, b_, x_) == 0;
     HYPRE_ClearAllErrors();
   }
@@ -458,7 +466,7 @@ bool SparseSolver::factorize(const SparseMatrixInt& A) {
         m.row_scale[i] = mx > 0 ? 1.0 / mx : 1.0;
       }
     }
-    m.amg = std::make_unique<BoomerAmg>(Ag, iterative_.strong_threshold, 3, 1);
+    m.amg = std::make_unique<BoomerAmg>(Ag, iterative_.strong_threshold, 3, 1, iterative_.aggressive_levels);
     ++stats_.setups;
     stats_.setup_seconds += seconds_since(t0);
     if (!m.amg->ok()) {
