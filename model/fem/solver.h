@@ -43,8 +43,9 @@ struct IterativeOptions {
   // Levels of the displacement block's hierarchy coarsened aggressively (hypre's aggressive HMIS
   // with multipass interpolation, Yang 2010, "On long-range interpolation operators for aggressive
   // coarsening", Numer. Linear Algebra Appl. 17:453). 0 (default): none. 1 halves the hierarchy of
-  // the stabilised linear lv-3d tangents and keeps it from growing faster than the mesh, at the
-  // same GMRES iterations (docs/models.md s.4.8, "Cost"); iterative_options_for() sets it there.
+  // the stabilised linear lv-3d tangents and nearly stops it growing faster than the mesh, at the
+  // same GMRES iterations on the unloaded tangent and 20-30 % more in the beat, each cheaper
+  // (docs/models.md s.4.8, "Cost"); iterative_options_for() sets it there.
   int aggressive_levels = 0;
   std::string validate() const;       // empty when valid
 };
