@@ -219,6 +219,10 @@ BENCHMARK(BM_Lv3dGmresIterationBySize)
     ->ArgsProduct({{3}, {18}, {36}, {0, 1}})->ArgsProduct({{4}, {24}, {48}, {0, 1}})
     ->ArgsProduct({{5}, {30}, {60}, {0, 1}})->ArgsProduct({{6}, {36}, {72}, {0, 1}})
     ->ArgsProduct({{8}, {48}, {96}, {0, 1}})
+    // One direction refined at a time from the fine mesh (3, 18, 36): around, rings, layers
+    // (docs/models.md s.4.8, "Where the iterations grow").
+    ->Args({3, 18, 72, 1})->Args({3, 36, 36, 1})->Args({6, 18, 36, 1})
+    ->Args({3, 18, 18, 1})->Args({5, 30, 30, 1})->Args({5, 30, 36, 1})
     ->Unit(benchmark::kMillisecond)
     ->Iterations(10);
 

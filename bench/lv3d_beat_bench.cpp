@@ -40,8 +40,11 @@
 // iteration (growth ^1.33; the machine ran 10-30 % slower than in the evening). With one
 // aggressively coarsened AMG level (iterative_options_for(), since 23:30 UTC): fine 106 s (120 s
 // without, same hour), 14 794 GMRES iterations, 155 set-ups; (4, 24, 48) 317 s, 18 476 GMRES
-// iterations, 193 set-ups (growth ^1.37 against 1.76 without). (6, 36, 72) is
-// registered for the growth beyond the L3 cache (not yet run). docs/models.md s.4.8, "Cost".
+// iterations, 193 set-ups (growth ^1.37 against 1.76 without). Again on 2026-11-28 (1 thread,
+// 01:18-02:15 UTC): fine 103 s, (4, 24, 48) 315 s, (5, 30, 60) 784 s (22 545 GMRES iterations, 199
+// set-ups, EF 40.8616 %), (6, 36, 72) 1458 s (26 902, 204, 40.8174 %); growth ^1.40 / 1.45 / 1.20,
+// ^1.36 overall, of which ~0.3 the GMRES iterations per beat (docs/models.md s.4.8, "Where the
+// iterations grow"). docs/models.md s.4.8, "Cost".
 //   build/bench/lv3d_beat_bench --benchmark_filter='LinearStabilized/.*/1/(1/10|2/2)/10/'
 // Earlier the same day (before the carried factors): the fine mesh took 84.9 s on the
 // machine of 2026-11-27 (AMD EPYC, 2.45 GHz, idle), where the code before that day's Newton changes

@@ -331,6 +331,7 @@ struct SparseSolver::Impl {
   RowMatrix Bt;               // K(0:n_u, n_u:n)
   RowMatrix Bt_g;             // (T K)(0:n_u, n_u:n) = B^T + g B^T W^-1 C
   Eigen::VectorXd g_winv;     // g / W
+  bool augmented = false;     // g > 0
   Eigen::VectorXd schur;      // diagonal Schur complement approximation (positive), n_p (kDiagonal)
   Eigen::VectorXd row_scale;  // 1 / max_j |K_ij|: the residual norm of GMRES is on S (b - K x)
   std::unique_ptr<BoomerAmg> amg;
@@ -346,7 +347,11 @@ struct SparseSolver::Impl {
     } else {
       z.tail(np) = -r.tail(np).cwiseQuotient(schur);
     }
-    const Eigen::VectorXd ru = r.head(n_u) + Bt * g_winv.cwiseProduct(r.tail(np)) - Bt_g * z.tail(np);
+    // With g = 0 (the default) T = I and the term B^T g W^-1 r_p vanishes: one product with B^T
+    // per application instead of two.
+    Eigen::VectorXd ru = r.head(n_u);
+    if (augmented) ru += Bt * g_winv.cwiseProduct(r.tail(np));
+    ru -= Bt_g * z.tail(np);
     amg->apply(ru.data(), z.data());
   }
 #endif
@@ -424,6 +429,7 @@ bool SparseSolver::factorize(const SparseMatrixInt& A) {
     const double gam = iterative_.augmentation;
     const Eigen::VectorXd W = simple_diagonal(dA);
     m.g_winv = gam * W.cwiseInverse();
+    m.augmented = gam > 0;
     const RowMatrix Ag = gam > 0 ? RowMatrix(Auu + RowMatrix(m.Bt * m.g_winv.asDiagonal() * B)) : Auu;
     m.Bt_g = gam > 0 ? RowMatrix(m.Bt + RowMatrix(m.Bt * m.g_winv.asDiagonal() * C)) : m.Bt;
     const bool sparse_schur = iterative_.schur == IterativeOptions::Schur::kSparse ||
