@@ -329,9 +329,9 @@ struct SparseSolver::Impl {
   int n_u = -1;
   SparseMatrixInt K;          // the matrix of the last factorize()
   RowMatrix Bt;               // K(0:n_u, n_u:n)
+  // With augmentation g > 0 only (empty otherwise, where T = I and B_g^T = B^T):
   RowMatrix Bt_g;             // (T K)(0:n_u, n_u:n) = B^T + g B^T W^-1 C
   Eigen::VectorXd g_winv;     // g / W
-  bool augmented = false;     // g > 0
   Eigen::VectorXd schur;      // diagonal Schur complement approximation (positive), n_p (kDiagonal)
   Eigen::VectorXd row_scale;  // 1 / max_j |K_ij|: the residual norm of GMRES is on S (b - K x)
   std::unique_ptr<BoomerAmg> amg;
@@ -347,11 +347,14 @@ struct SparseSolver::Impl {
     } else {
       z.tail(np) = -r.tail(np).cwiseQuotient(schur);
     }
-    // With g = 0 (the default) T = I and the term B^T g W^-1 r_p vanishes: one product with B^T
-    // per application instead of two.
+    // With g = 0 (the default) T = I: one product with B^T per application.
     Eigen::VectorXd ru = r.head(n_u);
-    if (augmented) ru += Bt * g_winv.cwiseProduct(r.tail(np));
-    ru -= Bt_g * z.tail(np);
+    if (g_winv.size() > 0) {
+      ru += Bt * g_winv.cwiseProduct(r.tail(np));
+      ru -= Bt_g * z.tail(np);
+    } else {
+      ru -= Bt * z.tail(np);
+    }
     amg->apply(ru.data(), z.data());
   }
 #endif
@@ -428,10 +431,13 @@ bool SparseSolver::factorize(const SparseMatrixInt& A) {
     // against 1.3M on the medium lv-3d mesh), so each V-cycle costs more than it saves: default 0.
     const double gam = iterative_.augmentation;
     const Eigen::VectorXd W = simple_diagonal(dA);
-    m.g_winv = gam * W.cwiseInverse();
-    m.augmented = gam > 0;
+    m.g_winv.resize(0);
+    m.Bt_g = RowMatrix();
+    if (gam > 0) {
+      m.g_winv = gam * W.cwiseInverse();
+      m.Bt_g = m.Bt + RowMatrix(m.Bt * m.g_winv.asDiagonal() * C);
+    }
     const RowMatrix Ag = gam > 0 ? RowMatrix(Auu + RowMatrix(m.Bt * m.g_winv.asDiagonal() * B)) : Auu;
-    m.Bt_g = gam > 0 ? RowMatrix(m.Bt + RowMatrix(m.Bt * m.g_winv.asDiagonal() * C)) : m.Bt;
     const bool sparse_schur = iterative_.schur == IterativeOptions::Schur::kSparse ||
                               (iterative_.schur == IterativeOptions::Schur::kAuto && nu == 3 * np);
     if (!sparse_schur) {
