@@ -5,6 +5,10 @@
 // resident memory (VmHWM); Complexity() fits the growth rate in the number of unknowns.
 // BM_Lv3dGmresIterationBySize: the time of one GMRES iteration per unknown on the stabilised linear
 // lv-3d tangent, coarse mesh to 166 000 unknowns (docs/models.md s.4.8, "Cost").
+// BM_Lv3dSchurSpectrum: the eigenvalues of the pressure Schur complement against its approximation
+// on the same tangent, and the GMRES iterations they imply (docs/models.md s.4.8, "Where the
+// iterations grow"):
+//   build/bench/fem_bench --benchmark_filter=SchurSpectrum --benchmark_counters_tabular=true
 //   build/bench/fem_bench --benchmark_counters_tabular=true
 #include "model/fem/fibres.h"
 #include "model/fem/land_benchmark.h"
@@ -13,6 +17,9 @@
 #include "model/fem/solver.h"
 
 #include <benchmark/benchmark.h>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/QR>
 
 #include <algorithm>
 #include <chrono>
@@ -131,10 +138,39 @@ void BM_NewtonLinearAlgebra(benchmark::State& st) {
   st.counters["tangent_nnz"] = static_cast<double>(p.K.nonZeros());
 }
 
+// The tangent of the stabilised linear lv-3d discretisation on the human ellipsoid (element_order
+// 1, one quadrature point, 10 MPa bulk modulus, pressure_stabilization 0.1, base fixed, Guccione's
+// law) in the unloaded reference, and as right-hand side the load vector of 1 kPa on the
+// endocardium there (at this softness, 10 kPa of follower pressure on the unstrained wall makes
+// the displacement block indefinite, which no beat's equilibrium tangent is). Mesh arguments 0-2:
+// (n_transmural, n_longitudinal, n_circumferential).
+struct Lv3dTangent {
+  std::unique_ptr<Mechanics> mech;
+  SparseMatrix K;
+  Eigen::VectorXd R;
+  bool ok = false;
+  explicit Lv3dTangent(const benchmark::State& st) {
+    const EllipsoidGeometry geometry = EllipsoidGeometry::human();
+    EllipsoidMeshOptions mo;
+    mo.n_transmural = static_cast<int>(st.range(0));
+    mo.n_longitudinal = static_cast<int>(st.range(1));
+    mo.n_circumferential = static_cast<int>(st.range(2));
+    mo.order = 1;
+    const Mesh mesh = ellipsoid_mesh(geometry, mo);
+    MechanicsOptions opt;
+    opt.bulk_modulus = 1e7;
+    opt.quadrature_degree = 1;
+    opt.pressure_stabilization = 0.1;
+    mech = std::make_unique<Mechanics>(mesh, ellipsoid_fibres(mesh, geometry, FibreOptions{}, 1),
+                                       std::make_unique<Guccione>(GuccioneParameters{}), opt);
+    mech->fix_surface(kBase);
+    const State s = mech->initial_state();
+    ok = mech->assemble(s, Load{1e3, 0.0}, &R, nullptr) && mech->assemble(s, Load{}, nullptr, &K);
+  }
+};
+
 // The cost of one GMRES iteration of the iterative solver against mesh size, on the tangent of
-// the stabilised linear lv-3d discretisation (the human ellipsoid of LeftVentricle3DOptions,
-// element_order 1, one quadrature point, 10 MPa bulk modulus, pressure_stabilization 0.1, base
-// fixed, Guccione's law, unloaded: the pattern of a beat's tangents). An iteration is a fixed number of passes over arrays that grow
+// Lv3dTangent (the pattern of a beat's tangents). An iteration is a fixed number of passes over arrays that grow
 // with the mesh: a BoomerAMG V-cycle on the displacement block, SIMPLE's diagonal on the
 // pressures, a product with the tangent and a Gram-Schmidt step. GMRES runs 20 iterations (its
 // tolerance set out of reach). Arguments (n_transmural, n_longitudinal, n_circumferential,
@@ -148,31 +184,15 @@ void BM_Lv3dGmresIterationBySize(benchmark::State& st) {
     st.SkipWithError("linear solver amg not built in");
     return;
   }
-  const EllipsoidGeometry geometry = EllipsoidGeometry::human();
-  EllipsoidMeshOptions mo;
-  mo.n_transmural = static_cast<int>(st.range(0));
-  mo.n_longitudinal = static_cast<int>(st.range(1));
-  mo.n_circumferential = static_cast<int>(st.range(2));
-  mo.order = 1;
-  const Mesh mesh = ellipsoid_mesh(geometry, mo);
-  MechanicsOptions opt;
-  opt.bulk_modulus = 1e7;
-  opt.quadrature_degree = 1;
-  opt.pressure_stabilization = 0.1;
-  Mechanics mech(mesh, ellipsoid_fibres(mesh, geometry, FibreOptions{}, 1),
-                 std::make_unique<Guccione>(GuccioneParameters{}), opt);
-  mech.fix_surface(kBase);
-  // The tangent of the unloaded reference, and as right-hand side the load vector of 1 kPa on the
-  // endocardium there (at this softness, 10 kPa of follower pressure on the unstrained wall makes
-  // the displacement block indefinite, which no beat's equilibrium tangent is).
-  const State s = mech.initial_state();
-  Eigen::VectorXd R;
-  SparseMatrix K;
-  if (!mech.assemble(s, Load{1e3, 0.0}, &R, nullptr) || !mech.assemble(s, Load{}, nullptr, &K)) {
+  const Lv3dTangent t(st);
+  if (!t.ok) {
     st.SkipWithError("assembly failed");
     return;
   }
-  IterativeOptions io = iterative_options_for(opt);
+  const Mesh& mesh = t.mech->mesh();
+  const SparseMatrix& K = t.K;
+  const Eigen::VectorXd& R = t.R;
+  IterativeOptions io = iterative_options_for(t.mech->options());
   io.aggressive_levels = static_cast<int>(st.range(3));
   io.relative_tolerance = 1e-15;  // not reached: every solve runs max_iterations
   io.max_iterations = 20;
@@ -214,6 +234,125 @@ void BM_Lv3dGmresIterationBySize(benchmark::State& st) {
   st.counters["matvec_ns_per_nnz"] = 1e9 * matvec / static_cast<double>(K.nonZeros());
 }
 
+// Residual norm of GMRES after k iterations on diag(lambda) x = 1 (the Krylov polynomial that
+// minimises ||p(Lambda) 1|| with p(0) = 1): the iterations to `tol`, at most 400. With lambda the
+// eigenvalues of Shat^-1 S and an exact displacement solve, the block-triangular preconditioned
+// saddle point has these eigenvalues (and ones), so this models GMRES's iterations from the
+// spectrum alone (Elman, Silvester & Wathen 2014, s.9.2; normal-matrix model, no rounding).
+int gmres_iterations_on_spectrum(const Eigen::VectorXd& lambda, double tol) {
+  const Eigen::Index n = lambda.size();
+  const int kmax = 400;
+  Eigen::MatrixXd V(n, kmax + 1), H = Eigen::MatrixXd::Zero(kmax + 1, kmax);
+  const double beta = std::sqrt(static_cast<double>(n));
+  V.col(0) = Eigen::VectorXd::Ones(n) / beta;
+  for (int k = 0; k < kmax; ++k) {
+    Eigen::VectorXd w = lambda.cwiseProduct(V.col(k));
+    for (int pass = 0; pass < 2; ++pass)  // Gram-Schmidt twice
+      for (int i = 0; i <= k; ++i) {
+        const double h = V.col(i).dot(w);
+        H(i, k) += h;
+        w -= h * V.col(i);
+      }
+    H(k + 1, k) = w.norm();
+    if (H(k + 1, k) > 0) V.col(k + 1) = w / H(k + 1, k);
+    Eigen::VectorXd e = Eigen::VectorXd::Zero(k + 2);
+    e(0) = beta;
+    const Eigen::MatrixXd Hk = H.topLeftCorner(k + 2, k + 1);
+    const Eigen::VectorXd y = Hk.colPivHouseholderQr().solve(e);
+    if ((e - Hk * y).norm() <= tol * beta || !(H(k + 1, k) > 0)) return k + 1;
+  }
+  return kmax;
+}
+
+// The spectrum of the pressure Schur complement of Lv3dTangent against its approximation in the
+// iterative solver, where GMRES's iterations grow with the mesh (docs/models.md s.4.8, "Where the
+// iterations grow"). The exact S = B A^-1 B^T - C (A^-1 by UMFPACK, one solve per pressure
+// unknown; A is symmetric in the unloaded reference), and Shat either SIMPLE's diagonal
+// diag(B |diag A|^-1 B^T) - diag C (argument 3 = 0, the solver's choice with the stabilisation) or
+// diag(B |diag A|^-1 B^T) - C, the stabilisation's Laplacian kept whole (1). Dense generalized
+// eigenproblem S v = lambda Shat v (Eigen), so up to ~5 000 pressure unknowns. Counters: the
+// extreme eigenvalues; how many lie below 0.3 and above 3; the GMRES iterations that the spectrum
+// implies to 1e-2 and 1e-8 (gmres_iterations_on_spectrum), and to 1e-2 with the 20 largest
+// replaced by 1 (what a coarse correction of those modes could give); where the 10 smallest and
+// the 10 largest modes sit, up to 3 000 pressure unknowns: the v^2-weighted mean height above the
+// apex [mm] and the mean share of v^2 on the inner vertex layers against the endo- and epicardial
+// ones (transmural shape).
+void BM_Lv3dSchurSpectrum(benchmark::State& st) {
+  const Lv3dTangent t(st);
+  if (!t.ok) {
+    st.SkipWithError("assembly failed");
+    return;
+  }
+  const Mesh& mesh = t.mech->mesh();
+  const Eigen::Index n = t.K.rows(), nu = 3 * mesh.n_nodes(), np = n - nu;
+  const SparseMatrix A = t.K.topLeftCorner(nu, nu), Bt = t.K.topRightCorner(nu, np);
+  const SparseMatrix B = t.K.bottomLeftCorner(np, nu), C = t.K.bottomRightCorner(np, np);
+  Eigen::VectorXd lambda;
+  Eigen::MatrixXd modes;
+  bool with_modes = false;
+  for (auto _ : st) {
+    SparseSolver direct(LinearSolver::kAuto);
+    if (!direct.factorize(A)) {
+      st.SkipWithError("factorisation failed");
+      return;
+    }
+    Eigen::MatrixXd Y(nu, np);
+    for (Eigen::Index j = 0; j < np; ++j) Y.col(j) = direct.solve(Eigen::VectorXd(Bt.col(j)));
+    Eigen::MatrixXd S = B * Y - Eigen::MatrixXd(C);
+    S = (0.5 * (S + S.transpose())).eval();
+    const Eigen::VectorXd dinv = A.diagonal().cwiseAbs().cwiseInverse();
+    const Eigen::VectorXd d = SparseMatrix(B.cwiseProduct(B)) * dinv;
+    const Eigen::MatrixXd Shat = st.range(3) == 0 ? Eigen::MatrixXd((d - C.diagonal()).asDiagonal())
+                                                  : Eigen::MatrixXd(Eigen::MatrixXd(d.asDiagonal()) - Eigen::MatrixXd(C));
+    // The eigenvectors (for the counters of where the modes sit) only up to 3 000 pressure
+    // unknowns: Eigen's dense solver takes about a minute there, and 3-4 times as long with them.
+    with_modes = np <= 3000;
+    Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::MatrixXd> es(
+        S, Shat, (with_modes ? Eigen::ComputeEigenvectors : Eigen::EigenvaluesOnly) | Eigen::Ax_lBx);
+    if (es.info() != Eigen::Success) {
+      st.SkipWithError("eigensolver failed");
+      return;
+    }
+    lambda = es.eigenvalues();
+    if (with_modes) modes = es.eigenvectors();
+  }
+  Eigen::VectorXd top20 = lambda;
+  top20.tail(20).setOnes();
+  st.counters["unknowns"] = static_cast<double>(n);
+  st.counters["lambda_min"] = lambda(0);
+  st.counters["lambda_max"] = lambda(np - 1);
+  st.counters["below_0.3"] = static_cast<double>((lambda.array() < 0.3).count());
+  st.counters["above_3"] = static_cast<double>((lambda.array() > 3.0).count());
+  st.counters["its_1e-2"] = gmres_iterations_on_spectrum(lambda, 1e-2);
+  st.counters["its_1e-8"] = gmres_iterations_on_spectrum(lambda, 1e-8);
+  st.counters["its_1e-2_top20"] = gmres_iterations_on_spectrum(top20, 1e-2);
+  if (!with_modes) return;
+  // Height above the apex and transmural layer of each vertex (pressure unknown i is vertex i).
+  const Eigen::VectorXd z = mesh.nodes.col(2).head(np);
+  const double z_apex = z.minCoeff();
+  const EllipsoidGeometry geometry = EllipsoidGeometry::human();
+  Eigen::VectorXd middle(np);
+  for (Eigen::Index i = 0; i < np; ++i) {
+    const double tw = geometry.coordinates(mesh.nodes.row(i).transpose())(0);
+    middle(i) = (tw > 1e-6 && tw < 1 - 1e-6) ? 1.0 : 0.0;
+  }
+  auto where = [&](Eigen::Index first, Eigen::Index count, double& height_mm, double& middle_share) {
+    height_mm = middle_share = 0.0;
+    for (Eigen::Index k = first; k < first + count; ++k) {
+      const Eigen::VectorXd e = modes.col(k).cwiseAbs2() / modes.col(k).squaredNorm();
+      height_mm += 1e3 * e.dot((z.array() - z_apex).matrix()) / static_cast<double>(count);
+      middle_share += e.dot(middle) / static_cast<double>(count);
+    }
+  };
+  double h_low, m_low, h_high, m_high;
+  where(0, 10, h_low, m_low);
+  where(np - 10, 10, h_high, m_high);
+  st.counters["low10_mm"] = h_low;
+  st.counters["low10_mid"] = m_low;
+  st.counters["high10_mm"] = h_high;
+  st.counters["high10_mid"] = m_high;
+}
+
 BENCHMARK(BM_Lv3dGmresIterationBySize)
     ->ArgsProduct({{1}, {6}, {12}, {0, 1}})->ArgsProduct({{2}, {12}, {24}, {0, 1}})
     ->ArgsProduct({{3}, {18}, {36}, {0, 1}})->ArgsProduct({{4}, {24}, {48}, {0, 1}})
@@ -225,6 +364,13 @@ BENCHMARK(BM_Lv3dGmresIterationBySize)
     ->Args({3, 18, 18, 1})->Args({5, 30, 30, 1})->Args({5, 30, 36, 1})
     ->Unit(benchmark::kMillisecond)
     ->Iterations(10);
+
+// The medium and fine meshes, and the fine one refined in one direction at a time.
+BENCHMARK(BM_Lv3dSchurSpectrum)
+    ->ArgsProduct({{2}, {12}, {24}, {0, 1}})->ArgsProduct({{3}, {18}, {36}, {0, 1}})
+    ->Args({3, 18, 72, 0})->Args({3, 36, 36, 0})->Args({6, 18, 36, 0})
+    ->Unit(benchmark::kSecond)
+    ->Iterations(1);
 
 BENCHMARK(BM_NewtonLinearAlgebra)
     ->ArgsProduct({{1, 2, 3}, {0, 1}})
