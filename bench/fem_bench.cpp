@@ -5,11 +5,11 @@
 // resident memory (VmHWM); Complexity() fits the growth rate in the number of unknowns.
 // BM_Lv3dGmresIterationBySize: the time of one GMRES iteration per unknown on the stabilised linear
 // lv-3d tangent, coarse mesh to 166 000 unknowns (docs/models.md s.4.8, "Cost").
+//   build/bench/fem_bench --benchmark_counters_tabular=true
 // BM_Lv3dSchurSpectrum: the eigenvalues of the pressure Schur complement against its approximation
 // on the same tangent, and the GMRES iterations they imply (docs/models.md s.4.8, "Where the
-// iterations grow"):
+// iterations grow"; about 10 minutes):
 //   build/bench/fem_bench --benchmark_filter=SchurSpectrum --benchmark_counters_tabular=true
-//   build/bench/fem_bench --benchmark_counters_tabular=true
 #include "model/fem/fibres.h"
 #include "model/fem/land_benchmark.h"
 #include "model/fem/material.h"
@@ -234,8 +234,8 @@ void BM_Lv3dGmresIterationBySize(benchmark::State& st) {
   st.counters["matvec_ns_per_nnz"] = 1e9 * matvec / static_cast<double>(K.nonZeros());
 }
 
-// Residual norm of GMRES after k iterations on diag(lambda) x = 1 (the Krylov polynomial that
-// minimises ||p(Lambda) 1|| with p(0) = 1): the iterations to `tol`, at most 400. With lambda the
+// GMRES's iterations to the relative residual `tol` (at most 400) on diag(lambda) x = 1: the
+// first k at which the polynomial of degree k with p(0) = 1 minimising ||p(Lambda) 1|| gets there. With lambda the
 // eigenvalues of Shat^-1 S and an exact displacement solve, the block-triangular preconditioned
 // saddle point has these eigenvalues (and ones), so this models GMRES's iterations from the
 // spectrum alone (Elman, Silvester & Wathen 2014, s.9.2; normal-matrix model, no rounding).
