@@ -437,7 +437,10 @@ bool SparseSolver::factorize(const SparseMatrixInt& A) {
       m.g_winv = gam * W.cwiseInverse();
       m.Bt_g = m.Bt + RowMatrix(m.Bt * m.g_winv.asDiagonal() * C);
     }
-    const RowMatrix Ag = gam > 0 ? RowMatrix(Auu + RowMatrix(m.Bt * m.g_winv.asDiagonal() * B)) : Auu;
+    // A_g; without augmentation A itself (a reference, not a copy of the block at every set-up).
+    RowMatrix Ag_augmented;
+    if (gam > 0) Ag_augmented = Auu + RowMatrix(m.Bt * m.g_winv.asDiagonal() * B);
+    const RowMatrix& Ag = gam > 0 ? Ag_augmented : Auu;
     const bool sparse_schur = iterative_.schur == IterativeOptions::Schur::kSparse ||
                               (iterative_.schur == IterativeOptions::Schur::kAuto && nu == 3 * np);
     if (!sparse_schur) {
