@@ -1,5 +1,6 @@
 #include "model/fem/electromechanics.h"
 
+#include "model/fem/coarse_space.h"
 #include "model/fem/element.h"
 #include "model/fem/eikonal.h"
 #include "model/fem/fibres.h"
@@ -108,6 +109,8 @@ std::string LeftVentricle3DOptions::validate() const {
     s << "linear_tolerance = " << linear_tolerance << " must lie in [1e-14, 0.1]";
     return s.str();
   }
+  if (coarse_correction && linear_solver != LinearSolver::kAmg)
+    return "coarse_correction needs linear_solver amg (the direct solvers have no preconditioner to correct)";
   if (!(conduction_velocity > 0.01 && conduction_velocity < 100)) {
     s << "conduction_velocity = " << conduction_velocity << " m/s must lie in (0.01, 100) m/s";
     return s.str();
@@ -556,6 +559,10 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
     io.relative_tolerance = options.linear_tolerance;
     lu = std::make_unique<SparseSolver>(options.linear_solver, io);
     lu->set_saddle_point(static_cast<int>(nu_));
+    if (options.coarse_correction)
+      lu->set_coarse_space(ellipsoid_coarse_space(
+          g.mesh, options.geometry,
+          ellipsoid_coarse_options(options.n_transmural, options.n_longitudinal, options.n_circumferential)));
   }
   SparseSolver& solver = *lu;
   bool factors_fresh = false;  // the factors belong to the current point

@@ -145,6 +145,11 @@ struct LeftVentricle3DOptions {
   // convergence, so a looser linear tolerance costs iterations, not accuracy
   // (docs/models.md s.4.8, "Cost").
   double linear_tolerance = 1e-10;
+  // Coarse correction of the iterative solver (needs linear_solver kAmg): the thin wall's smooth
+  // shell modes on hats in the ellipsoid's coordinates (coarse_space.h; docs/models.md s.4.4).
+  // Off by default: it halves the GMRES iterations and set-ups of a beat, but each iteration costs
+  // more and the beat gains little (docs/models.md s.4.8, "The coarse correction in the beat").
+  bool coarse_correction = false;
 
   // Empty when valid, else a message starting with the offending field's name.
   std::string validate() const;

@@ -5,8 +5,10 @@
 //  - iterative (kAmg, when built with hypre): restarted GMRES right-preconditioned by a block
 //    upper-triangular preconditioner of the (u, p) saddle point, one BoomerAMG V-cycle on the
 //    displacement block and a sparse Schur complement approximation on the pressure block, itself
-//    applied by BoomerAMG (solver.cpp says which literature). It needs the block layout (set_saddle_point) and factorize() builds the
-//    preconditioner instead of factors; solve() then solves with the matrix given to factorize().
+//    applied by BoomerAMG (solver.cpp says which literature); optionally preceded by a Galerkin
+//    coarse correction on a small coarse space (set_coarse_space). It needs the block layout
+//    (set_saddle_point) and factorize() builds the preconditioner instead of factors; solve() then
+//    solves with the matrix given to factorize().
 #pragma once
 
 #include <Eigen/Core>
@@ -58,6 +60,7 @@ struct IterativeStats {
   int last_iterations = 0;           // of the last solve
   double last_relative_residual = 0; // scaled residual / scaled rhs of the last solve
   int amg_levels = 0;                // of the last set-up
+  int coarse_size = 0;               // coarse unknowns of the last set-up (0: no coarse correction)
   double setup_seconds = 0, solve_seconds = 0;
 };
 
@@ -74,6 +77,16 @@ class SparseSolver {
   // [0, n_u) are displacements, 3 per node, node-major; [n_u, n) are pressures. Dirichlet rows and
   // columns are identity. std::invalid_argument when n_u is negative or not a multiple of 3.
   void set_saddle_point(int n_u);
+
+  // Coarse space of a two-level preconditioner (kAmg only; ignored by the direct solvers): the
+  // columns of P (n x n_c, n_c << n) span the modes the block preconditioner M approximates worst.
+  // factorize() then also factorises K_c = P^T K P, and each application of the preconditioner is
+  // z = P K_c^-1 P^T r followed by z += M (r - K z) (solver.cpp). Rows of P at the matrix's
+  // Dirichlet unknowns (identity rows) are ignored, and so are its empty columns. An empty P (the
+  // default) removes the correction. factorize() fails when P's row count is not the matrix's.
+  // K_c is factorised dense: std::invalid_argument above kMaxCoarseSize columns.
+  static constexpr int kMaxCoarseSize = 4000;
+  void set_coarse_space(Eigen::SparseMatrix<double, Eigen::ColMajor, int> P);
 
   // Direct: LU factorisation; kAmg: the preconditioner of A (kept with a copy of A). false when the
   // matrix is (numerically) singular or, for kAmg, set_saddle_point was not called or hypre failed.

@@ -37,6 +37,11 @@ class MapOptions final : public OptionReader {
     return has(key) ? std::stod(values_.at(key)) : fallback;
   }
   double number(const std::string& key, double fallback) const override { return quantity(key, "1", fallback); }
+  bool boolean(const std::string& key, bool fallback) const override {
+    if (!has(key)) return fallback;
+    if (values_.at(key) != "true" && values_.at(key) != "false") fail(key, "expected true or false");
+    return values_.at(key) == "true";
+  }
   int integer(const std::string& key, int fallback) const override {
     return has(key) ? std::stoi(values_.at(key)) : fallback;
   }

@@ -93,6 +93,10 @@ TEST(Lv3dRegistration, BadNumericsAreReportedAtTheirKey) {
   EXPECT_EQ(read_lv3d_options(MapOptions({{"linear_solver", "sparselu"}, {"linear_tolerance", "1e-2"}})).linear_tolerance,
             1e-2);
   EXPECT_EQ(error_of({{"mesh", "medium"}, {"dt", "2e-3"}}), "");
+  EXPECT_EQ(error_of({{"coarse_correction", "true"}}),
+            "coarse_correction: simulator.numerics: coarse_correction needs linear_solver amg (the direct solvers have "
+            "no preconditioner to correct)");
+  EXPECT_EQ(error_of({{"coarse_correction", "yes"}}), "coarse_correction: expected true or false");
   EXPECT_EQ(error_of({{"element_order", "3"}}),
             "element_order: simulator.numerics: element_order must be 1 (linear) or 2 (quadratic)");
   EXPECT_EQ(error_of({{"element_order", "1"}}),

@@ -2,6 +2,7 @@
 // preconditioner, LinearSolver::kAmg) against the direct one on Taylor-Hood tangents of the Land
 // benchmark and on the first steps of the 3D beat; determinism; options and configuration. The
 // whole beat and Land problem 2 at K = 2 are in solver_slow_test.cpp.
+#include "model/fem/coarse_space.h"
 #include "model/fem/electromechanics.h"
 #include "model/fem/fibres.h"
 #include "model/fem/material.h"
@@ -74,11 +75,21 @@ std::unique_ptr<Mechanics> linear_land_mechanics(int refinement, double stabiliz
 
 // GMRES iterations of the iterative solver with `io` (tolerance 1e-8, cap 5000) on `sys`, and the
 // relative difference of its solution from `direct` in *error (1 when it returned NaN).
-int gmres_to_1e8(const NewtonSystem& sys, IterativeOptions io, const Eigen::VectorXd& direct, double* error) {
+// The Newton update of `sys` by the direct solver (SparseLU).
+Eigen::VectorXd direct_solution(const NewtonSystem& sys) {
+  SparseSolver lu(LinearSolver::kSparseLU);
+  EXPECT_TRUE(lu.factorize(sys.K));
+  return lu.solve(-sys.R);
+}
+
+// With `coarse`, the two-level preconditioner on that coarse space.
+int gmres_to_1e8(const NewtonSystem& sys, IterativeOptions io, const Eigen::VectorXd& direct, double* error,
+                 const Eigen::SparseMatrix<double, Eigen::ColMajor, int>* coarse = nullptr) {
   io.relative_tolerance = 1e-8;
   io.max_iterations = 5000;
   SparseSolver amg(LinearSolver::kAmg, io);
   amg.set_saddle_point(sys.nu);
+  if (coarse) amg.set_coarse_space(*coarse);
   EXPECT_TRUE(amg.factorize(sys.K));
   const Eigen::VectorXd x = amg.solve(-sys.R);
   *error = x.allFinite() ? relative_difference(x, direct) : 1.0;
@@ -133,9 +144,7 @@ TEST(SparseSolver, UmfpackAnalysisOfThePatternServesEveryMatrixOfIt) {
 TEST(SparseSolver, AmgSolvesAnIndefiniteLandTangentToTheDirectSolution) {
   if (!linear_solver_available(LinearSolver::kAmg)) GTEST_SKIP() << "built without hypre";
   const LandSystem sys;
-  SparseSolver lu(LinearSolver::kSparseLU);
-  ASSERT_TRUE(lu.factorize(sys.K));
-  const Eigen::VectorXd direct = lu.solve(-sys.R);
+  const Eigen::VectorXd direct = direct_solution(sys);
   // SIMPLE's diagonal Schur approximation (kAuto's choice for Taylor-Hood) without and with the
   // augmented Lagrangian g = 1, then the sparse one (g = 0).
   const IterativeOptions::Schur schur[3] = {IterativeOptions::Schur::kDiagonal, IterativeOptions::Schur::kDiagonal,
@@ -178,9 +187,7 @@ TEST(SparseSolver, SparseSchurApproximationSolvesLinearTetrahedraInAFractionOfTh
   if (!linear_solver_available(LinearSolver::kAmg)) GTEST_SKIP() << "built without hypre";
   for (int refinement : {1, 2}) {
     const NewtonSystem sys(*linear_land_mechanics(refinement));
-    SparseSolver lu(LinearSolver::kSparseLU);
-    ASSERT_TRUE(lu.factorize(sys.K));
-    const Eigen::VectorXd direct = lu.solve(-sys.R);
+    const Eigen::VectorXd direct = direct_solution(sys);
     // Sparse, diagonal, and the default (kAuto: sparse for these equal-order elements).
     const IterativeOptions::Schur schur[3] = {IterativeOptions::Schur::kSparse, IterativeOptions::Schur::kDiagonal,
                                               IterativeOptions::Schur::kAuto};
@@ -214,9 +221,7 @@ TEST(SparseSolver, StabilisedLinearTetrahedraNeedIterationsIndependentOfTheMesh)
       if (alpha == 0.0 && refinement == 3) continue;  // 345 iterations, measured: too dear for the fast tier
       auto mech = linear_land_mechanics(refinement, alpha);
       const NewtonSystem sys(*mech);
-      SparseSolver lu(LinearSolver::kSparseLU);
-      ASSERT_TRUE(lu.factorize(sys.K));
-      const Eigen::VectorXd direct = lu.solve(-sys.R);
+      const Eigen::VectorXd direct = direct_solution(sys);
       MechanicsOptions mo;
       mo.pressure_stabilization = alpha;
       IterativeOptions io = iterative_options_for(mo);
@@ -244,6 +249,122 @@ TEST(SparseSolver, StabilisedLinearTetrahedraNeedIterationsIndependentOfTheMesh)
   // count on the K = 2 mesh (the K = 3 one, 345, is not run here: it costs most of the test).
   EXPECT_LT(stabilised[2], 1.3 * stabilised[1]);
   EXPECT_LT(3 * stabilised[2], plain[1]);
+}
+
+// The ellipsoid's coarse space (coarse_space.h): its hats are a partition of unity on every field,
+// each displacement column moves one component and each pressure column only pressures, every
+// column carries nodes, and the trailing unknowns are their own coarse unknowns; on a quadratic
+// mesh the pressure rows are the vertices'.
+TEST(SparseSolver, EllipsoidCoarseSpaceIsAPartitionOfUnityOnEveryField) {
+  const EllipsoidGeometry geo;
+  for (const int order : {1, 2}) {
+    EllipsoidMeshOptions eo;
+    eo.n_transmural = 2;
+    eo.n_longitudinal = 12;
+    eo.n_circumferential = 24;
+    eo.order = order;
+    const Mesh mesh = ellipsoid_mesh(geo, eo);
+    const EllipsoidCoarseOptions co = ellipsoid_coarse_options(2, 12, 24);
+    EXPECT_EQ(co.transmural, 3);
+    EXPECT_EQ(co.meridian, 5);
+    EXPECT_EQ(co.around, 8);
+    const auto P = ellipsoid_coarse_space(mesh, geo, co, 2);
+    const int nn = mesh.n_nodes(), nv = mesh.n_vertices;
+    ASSERT_EQ(P.rows(), 3 * nn + nv + 2);
+    ASSERT_EQ(P.cols(), 4 * 3 * (1 + 4 * 8) + 2);
+    const Eigen::VectorXd row_sums = P * Eigen::VectorXd::Ones(P.cols());
+    EXPECT_LT((row_sums - Eigen::VectorXd::Ones(P.rows())).cwiseAbs().maxCoeff(), 1e-12) << "order " << order;
+    for (int c = 0; c < P.cols(); ++c) {
+      int entries = 0;
+      for (Eigen::SparseMatrix<double, Eigen::ColMajor, int>::InnerIterator it(P, c); it; ++it) {
+        ++entries;
+        EXPECT_GE(it.value(), 0.0);
+        if (c >= P.cols() - 2) {
+          EXPECT_EQ(it.row(), 3 * nn + nv + (c - (P.cols() - 2)));
+        } else if (c % 4 == 3) {
+          EXPECT_GE(it.row(), 3 * nn);
+          EXPECT_LT(it.row(), 3 * nn + nv);
+        } else {
+          EXPECT_LT(it.row(), 3 * nn);
+          EXPECT_EQ(it.row() % 3, c % 4);
+        }
+      }
+      EXPECT_GT(entries, 0) << "column " << c << " is empty";
+    }
+  }
+  // The defaults never ask for more hats than the mesh has node layers.
+  const EllipsoidCoarseOptions small = ellipsoid_coarse_options(1, 6, 12);
+  EXPECT_EQ(small.transmural, 2);
+  EXPECT_EQ(small.meridian, 4);
+  EXPECT_EQ(small.around, 6);
+  EXPECT_THROW(ellipsoid_coarse_space(ellipsoid_mesh(geo, {}), geo, EllipsoidCoarseOptions{0, 7, 12}),
+               std::invalid_argument);
+}
+
+// The two-level preconditioner is exact on its coarse space: with P holding the solution, the first
+// application z = P K_c^-1 P^T b returns it (Galerkin: P^T K (P c - x) = 0 has c with P c = x), and
+// GMRES stops after one iteration, also when P has entries at the Dirichlet unknowns (ignored) and
+// a column that is empty there. Misuse: a P of the wrong height fails factorize(), one too wide is
+// refused, and an empty one removes the correction.
+TEST(SparseSolver, CoarseCorrectionIsExactOnItsCoarseSpace) {
+  if (!linear_solver_available(LinearSolver::kAmg)) GTEST_SKIP() << "built without hypre";
+  auto mech = linear_land_mechanics(1, 0.1);
+  const NewtonSystem sys(*mech);
+  const Eigen::VectorXd direct = direct_solution(sys);
+  const Eigen::Index n = sys.K.rows();
+  std::vector<Eigen::Triplet<double, int>> trip;
+  int fixed = 0;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const bool dirichlet = i < sys.nu && mech->is_fixed(static_cast<int>(i));
+    trip.emplace_back(static_cast<int>(i), 0, dirichlet ? 1.0 : direct[i]);
+    if (dirichlet) {
+      trip.emplace_back(static_cast<int>(i), 1, 1.0);  // a column on Dirichlet unknowns only
+      ++fixed;
+    }
+  }
+  ASSERT_GT(fixed, 0);
+  Eigen::SparseMatrix<double, Eigen::ColMajor, int> P(n, 2);
+  P.setFromTriplets(trip.begin(), trip.end());
+  IterativeOptions io = iterative_options_for(mech->options());
+  io.relative_tolerance = 1e-8;
+  SparseSolver amg(LinearSolver::kAmg, io);
+  amg.set_saddle_point(sys.nu);
+  amg.set_coarse_space(P);
+  ASSERT_TRUE(amg.factorize(sys.K));
+  EXPECT_EQ(amg.iterative_stats().coarse_size, 1);
+  const Eigen::VectorXd x = amg.solve(-sys.R);
+  ASSERT_TRUE(x.allFinite());
+  EXPECT_EQ(amg.iterative_stats().last_iterations, 1);
+  EXPECT_LT(relative_difference(x, direct), 1e-8);
+
+  amg.set_coarse_space(Eigen::SparseMatrix<double, Eigen::ColMajor, int>(n + 1, 2));
+  EXPECT_FALSE(amg.factorize(sys.K));
+  EXPECT_THROW(amg.set_coarse_space(Eigen::SparseMatrix<double, Eigen::ColMajor, int>(n, SparseSolver::kMaxCoarseSize + 1)),
+               std::invalid_argument);
+  amg.set_coarse_space({});
+  ASSERT_TRUE(amg.factorize(sys.K));
+  EXPECT_EQ(amg.iterative_stats().coarse_size, 0);
+  ASSERT_TRUE(amg.solve(-sys.R).allFinite());
+  EXPECT_GT(amg.iterative_stats().last_iterations, 1);
+}
+
+// The coarse correction of the wall modes (coarse_space.h, docs/models.md s.4.8) on the stabilised
+// linear tetrahedra at K = 3 (10 384 unknowns): the same solution in fewer GMRES iterations.
+TEST(SparseSolver, CoarseCorrectionOfTheWallModesCutsTheIterations) {
+  if (!linear_solver_available(LinearSolver::kAmg)) GTEST_SKIP() << "built without hypre";
+  auto mech = linear_land_mechanics(3, 0.1);
+  const NewtonSystem sys(*mech);
+  const Eigen::VectorXd direct = direct_solution(sys);
+  const IterativeOptions io = iterative_options_for(mech->options());
+  double error = 0.0;
+  const int plain = gmres_to_1e8(sys, io, direct, &error);
+  EXPECT_LT(error, 1e-5);
+  const Eigen::SparseMatrix<double, Eigen::ColMajor, int> P =
+      ellipsoid_coarse_space(mech->mesh(), EllipsoidGeometry{}, ellipsoid_coarse_options(3, 18, 36));
+  const int corrected = gmres_to_1e8(sys, io, direct, &error, &P);
+  EXPECT_LT(error, 1e-5);
+  std::printf("K = 3: GMRES iterations to 1e-8 without / with the coarse correction %d / %d\n", plain, corrected);
+  EXPECT_LT(corrected, 0.7 * plain);
 }
 
 TEST(SparseSolver, AmgGivesTheSameBitsInRepeatedSolvesAndAnyThreadCount) {
@@ -398,13 +519,18 @@ TEST(SparseSolver, Lv3dLinearTetrahedraFirstStepsAgreeWithTheDirectSolver) {
 }
 
 // The same with the pressure stabilisation (pressure_stabilization 0.1, SIMPLE's diagonal Schur
-// approximation): the stabilised discretisation is one problem, whichever the solver, and another
+// approximation), with and without the coarse correction: the stabilised discretisation is one
+// problem, whichever the solver, and another
 // problem than the unstabilised one (P_lv at the end of the isovolumic contraction 6348.2 against
 // 6419.9 Pa, measured 2026-11-27).
 TEST(SparseSolver, Lv3dStabilisedLinearTetrahedraFirstStepsAgreeWithTheDirectSolver) {
   if (!linear_solver_available(LinearSolver::kAmg)) GTEST_SKIP() << "built without hypre";
   const Eigen::VectorXd direct = after_ten_steps(linear_lv3d(0.1, LinearSolver::kSparseLU));
   expect_lands_on_direct(after_ten_steps(linear_lv3d(0.1, LinearSolver::kAmg)), direct);
+  // With the coarse correction of the wall modes (coarse_correction, coarse_space.h): the same.
+  LeftVentricle3DOptions corrected = linear_lv3d(0.1, LinearSolver::kAmg);
+  corrected.coarse_correction = true;
+  expect_lands_on_direct(after_ten_steps(corrected), direct);
   const Eigen::VectorXd plain = after_ten_steps(linear_lv3d(0.0, LinearSolver::kSparseLU));
   EXPECT_GT(std::abs(plain(1) - direct(1)), 1e-6 * std::abs(direct(1)));
 }
