@@ -348,7 +348,9 @@ struct SparseSolver::Impl {
   RowMatrix coarse_KP;  // K P: the coarse correction's residual r - K z_c = r - (K P) y without a product with K
   // K_c's factors: dense. On an ellipsoid coarse space of 3 x 7 x 12 hats (876 unknowns) the
   // sparse factors filled to 2/3 of the dense ones, and the dense triangular solves took 0.2 ms
-  // against 0.35 (SparseLU) and 0.6 (UMFPACK).
+  // against 0.35 (SparseLU) and 0.6 (UMFPACK). Eigen's blocked LU may run its products on OpenMP
+  // threads, but it sizes their blocks for one thread (GeneralMatrixMatrix.h) and splits only the
+  // result among threads, so the factors are the same bits with any thread count (tested).
   Eigen::PartialPivLU<Eigen::MatrixXd> coarse_lu;
   bool coarse = false;
 
