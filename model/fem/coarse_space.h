@@ -1,7 +1,7 @@
 // Coarse space of the two-level preconditioner of the iterative solver (SparseSolver::
-// set_coarse_space; docs/models.md s.4.4, "Coarse correction"): smooth
-// functions of the truncated ellipsoid's coordinates that span the thin wall's shell modes, the
-// upper end of the spectrum of the preconditioned Schur complement (BM_Lv3dSchurSpectrum).
+// set_coarse_space; docs/models.md s.4.4, "Coarse correction"): smooth functions of the truncated
+// ellipsoid's coordinates that span the thin wall's shell modes, the upper end of the spectrum of
+// the preconditioned Schur complement (bench/fem_bench BM_Lv3dSchurSpectrum).
 #pragma once
 
 #include "model/fem/mesh.h"
@@ -31,9 +31,10 @@ EllipsoidCoarseOptions ellipsoid_coarse_options(int n_transmural, int n_longitud
 
 // The prolongation P (n x n_c) of the mixed u-p unknowns of `mesh` ordered as in Mechanics: 3
 // displacement components per node (node-major), one pressure per vertex, then `trailing` scalar
-// unknowns (e.g. the cavity and arterial pressures of the electromechanical step), each its own
-// coarse unknown. Per scalar hat: three displacement columns (x, y, z) and one pressure column.
-// Rows of constrained unknowns are left to the solver (it ignores the matrix's identity rows).
+// unknowns (e.g. a cavity pressure coupled monolithically; lv-3d's step borders its circulation
+// unknowns outside the matrix and has none), each its own coarse unknown. Per scalar hat: three
+// displacement columns (x, y, z) and one pressure column. Rows of constrained unknowns are left to
+// the solver (it ignores the matrix's identity rows).
 // std::invalid_argument on invalid options or a negative `trailing`.
 Eigen::SparseMatrix<double, Eigen::ColMajor, int> ellipsoid_coarse_space(const Mesh& mesh, const EllipsoidGeometry& g,
                                                                          const EllipsoidCoarseOptions& o,
