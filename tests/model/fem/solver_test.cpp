@@ -348,7 +348,7 @@ TEST(SparseSolver, CoarseCorrectionIsExactOnItsCoarseSpace) {
   EXPECT_GT(amg.iterative_stats().last_iterations, 1);
 }
 
-// The coarse correction of the wall modes (coarse_space.h, docs/models.md s.4.8) on the stabilised
+// The coarse correction of the wall modes (coarse_space.h, docs/models.md s.4.4) on the stabilised
 // linear tetrahedra at K = 3 (10 384 unknowns): the same solution in fewer GMRES iterations.
 TEST(SparseSolver, CoarseCorrectionOfTheWallModesCutsTheIterations) {
   if (!linear_solver_available(LinearSolver::kAmg)) GTEST_SKIP() << "built without hypre";
