@@ -149,7 +149,7 @@ struct Lv3dTangent {
   SparseMatrix K;
   Eigen::VectorXd R;
   bool ok = false;
-  explicit Lv3dTangent(const benchmark::State& st) {
+  explicit Lv3dTangent(const benchmark::State& st, double grad_div = 0.0) {
     const EllipsoidGeometry geometry = EllipsoidGeometry::human();
     EllipsoidMeshOptions mo;
     mo.n_transmural = static_cast<int>(st.range(0));
@@ -161,6 +161,7 @@ struct Lv3dTangent {
     opt.bulk_modulus = 1e7;
     opt.quadrature_degree = 1;
     opt.pressure_stabilization = 0.1;
+    opt.grad_div = grad_div;
     mech = std::make_unique<Mechanics>(mesh, ellipsoid_fibres(mesh, geometry, FibreOptions{}, 1),
                                        std::make_unique<Guccione>(GuccioneParameters{}), opt);
     mech->fix_surface(kBase);
@@ -174,7 +175,8 @@ struct Lv3dTangent {
 // with the mesh: a BoomerAMG V-cycle on the displacement block, SIMPLE's diagonal on the
 // pressures, a product with the tangent and a Gram-Schmidt step. GMRES runs 20 iterations (its
 // tolerance set out of reach). Arguments (n_transmural, n_longitudinal, n_circumferential,
-// aggressive_levels: 0 or 1, the latter iterative_options_for()'s choice).
+// aggressive_levels: 0 or 1, the latter iterative_options_for()'s choice; grad_div beta: 0 or 1,
+// with 1 the Schur approximation is iterative_options_for()'s kMass).
 // Counters: unknowns, nonzeros of the tangent and of the AMG hierarchy (all levels), GMRES
 // iterations to 1e-2 and 1e-8 on the tangent (its_1e-2, its_1e-8), ns per GMRES
 // iteration and unknown, and ns per nonzero of one product K x with the tangent alone (Eigen,
@@ -184,13 +186,14 @@ void BM_Lv3dGmresIterationBySize(benchmark::State& st) {
     st.SkipWithError("linear solver amg not built in");
     return;
   }
-  const Lv3dTangent t(st);
+  const Lv3dTangent t(st, static_cast<double>(st.range(4)));
   if (!t.ok) {
     st.SkipWithError("assembly failed");
     return;
   }
   const Mesh& mesh = t.mech->mesh();
   const SparseMatrix& K = t.K;
+  const SparseMatrix Mw = t.mech->schur_mass();
   const Eigen::VectorXd& R = t.R;
   IterativeOptions io = iterative_options_for(t.mech->options());
   io.aggressive_levels = static_cast<int>(st.range(3));
@@ -198,6 +201,7 @@ void BM_Lv3dGmresIterationBySize(benchmark::State& st) {
   io.max_iterations = 20;
   SparseSolver solver(LinearSolver::kAmg, io);
   solver.set_saddle_point(3 * mesh.n_nodes());
+  solver.set_schur_mass(Mw);
   if (!solver.factorize(K)) {
     st.SkipWithError("AMG set-up failed");
     return;
@@ -224,6 +228,7 @@ void BM_Lv3dGmresIterationBySize(benchmark::State& st) {
     to.max_iterations = 1000;
     SparseSolver s2(LinearSolver::kAmg, to);
     s2.set_saddle_point(3 * mesh.n_nodes());
+    s2.set_schur_mass(Mw);
     const bool ok = s2.factorize(K) && s2.solve(-R).allFinite();
     st.counters[tol > 1e-3 ? "its_1e-2" : "its_1e-8"] = ok ? s2.iterative_stats().last_iterations : -1.0;
   }
@@ -269,7 +274,9 @@ int gmres_iterations_on_spectrum(const Eigen::VectorXd& lambda, double tol) {
 // iterations grow"). The exact S = B A^-1 B^T - C (A^-1 by UMFPACK, one solve per pressure
 // unknown; A is symmetric in the unloaded reference), and Shat either SIMPLE's diagonal
 // diag(B |diag A|^-1 B^T) - diag C (argument 3 = 0, the solver's choice with the stabilisation) or
-// diag(B |diag A|^-1 B^T) - C, the stabilisation's Laplacian kept whole (1). Dense generalized
+// diag(B |diag A|^-1 B^T) - C, the stabilisation's Laplacian kept whole (1), or, on the tangent with
+// the grad-div term (grad_div 1), the solver's kMass approximation Mechanics::schur_mass() - C (2;
+// docs/models.md s.4.4, "Grad-div term"). Dense generalized
 // eigenproblem S v = lambda Shat v (Eigen), so up to ~5 000 pressure unknowns. Counters: the
 // extreme eigenvalues; how many lie below 0.3 and above 3; the GMRES iterations that the spectrum
 // implies to 1e-2 and 1e-8 (gmres_iterations_on_spectrum), and to 1e-2 with the 20 largest
@@ -278,7 +285,7 @@ int gmres_iterations_on_spectrum(const Eigen::VectorXd& lambda, double tol) {
 // apex [mm] and the mean share of v^2 on the inner vertex layers against the endo- and epicardial
 // ones (transmural shape).
 void BM_Lv3dSchurSpectrum(benchmark::State& st) {
-  const Lv3dTangent t(st);
+  const Lv3dTangent t(st, st.range(3) == 2 ? 1.0 : 0.0);
   if (!t.ok) {
     st.SkipWithError("assembly failed");
     return;
@@ -302,8 +309,10 @@ void BM_Lv3dSchurSpectrum(benchmark::State& st) {
     S = (0.5 * (S + S.transpose())).eval();
     const Eigen::VectorXd dinv = A.diagonal().cwiseAbs().cwiseInverse();
     const Eigen::VectorXd d = SparseMatrix(B.cwiseProduct(B)) * dinv;
-    const Eigen::MatrixXd Shat = st.range(3) == 0 ? Eigen::MatrixXd((d - C.diagonal()).asDiagonal())
-                                                  : Eigen::MatrixXd(Eigen::MatrixXd(d.asDiagonal()) - Eigen::MatrixXd(C));
+    const Eigen::MatrixXd Shat =
+        st.range(3) == 0   ? Eigen::MatrixXd((d - C.diagonal()).asDiagonal())
+        : st.range(3) == 1 ? Eigen::MatrixXd(Eigen::MatrixXd(d.asDiagonal()) - Eigen::MatrixXd(C))
+                           : Eigen::MatrixXd(Eigen::MatrixXd(t.mech->schur_mass()) - Eigen::MatrixXd(C));
     // The eigenvectors (for the counters of where the modes sit) only up to 3 000 pressure
     // unknowns: Eigen's dense solver takes about a minute there, and 3-4 times as long with them.
     with_modes = np <= 3000;
@@ -354,21 +363,29 @@ void BM_Lv3dSchurSpectrum(benchmark::State& st) {
 }
 
 BENCHMARK(BM_Lv3dGmresIterationBySize)
-    ->ArgsProduct({{1}, {6}, {12}, {0, 1}})->ArgsProduct({{2}, {12}, {24}, {0, 1}})
-    ->ArgsProduct({{3}, {18}, {36}, {0, 1}})->ArgsProduct({{4}, {24}, {48}, {0, 1}})
-    ->ArgsProduct({{5}, {30}, {60}, {0, 1}})->ArgsProduct({{6}, {36}, {72}, {0, 1}})
-    ->ArgsProduct({{8}, {48}, {96}, {0, 1}})
+    ->ArgsProduct({{1}, {6}, {12}, {0, 1}, {0}})->ArgsProduct({{2}, {12}, {24}, {0, 1}, {0}})
+    ->ArgsProduct({{3}, {18}, {36}, {0, 1}, {0}})->ArgsProduct({{4}, {24}, {48}, {0, 1}, {0}})
+    ->ArgsProduct({{5}, {30}, {60}, {0, 1}, {0}})->ArgsProduct({{6}, {36}, {72}, {0, 1}, {0}})
+    ->ArgsProduct({{8}, {48}, {96}, {0, 1}, {0}})
     // One direction refined at a time from the fine mesh (3, 18, 36): around, rings, layers
     // (docs/models.md s.4.8, "Where the iterations grow").
-    ->Args({3, 18, 72, 1})->Args({3, 36, 36, 1})->Args({6, 18, 36, 1})
-    ->Args({3, 18, 18, 1})->Args({5, 30, 30, 1})->Args({5, 30, 36, 1})
+    ->Args({3, 18, 72, 1, 0})->Args({3, 36, 36, 1, 0})->Args({6, 18, 36, 1, 0})
+    ->Args({3, 18, 18, 1, 0})->Args({5, 30, 30, 1, 0})->Args({5, 30, 36, 1, 0})
+    // With the grad-div term (beta 1) and the mass Schur approximation, every size and the
+    // refinements along the wall (docs/models.md s.4.4, "Grad-div term").
+    ->ArgsProduct({{1}, {6}, {12}, {1}, {1}})->ArgsProduct({{2}, {12}, {24}, {1}, {1}})
+    ->ArgsProduct({{3}, {18}, {36}, {1}, {1}})->ArgsProduct({{4}, {24}, {48}, {1}, {1}})
+    ->ArgsProduct({{5}, {30}, {60}, {1}, {1}})->ArgsProduct({{6}, {36}, {72}, {1}, {1}})
+    ->ArgsProduct({{8}, {48}, {96}, {1}, {1}})
+    ->Args({3, 18, 72, 1, 1})->Args({3, 36, 36, 1, 1})
     ->Unit(benchmark::kMillisecond)
     ->Iterations(10);
 
 // The medium and fine meshes, and the fine one refined in one direction at a time.
 BENCHMARK(BM_Lv3dSchurSpectrum)
-    ->ArgsProduct({{2}, {12}, {24}, {0, 1}})->ArgsProduct({{3}, {18}, {36}, {0, 1}})
+    ->ArgsProduct({{2}, {12}, {24}, {0, 1, 2}})->ArgsProduct({{3}, {18}, {36}, {0, 1, 2}})
     ->Args({3, 18, 72, 0})->Args({3, 36, 36, 0})->Args({6, 18, 36, 0})
+    ->Args({3, 18, 72, 2})->Args({3, 36, 36, 2})
     ->Unit(benchmark::kSecond)
     ->Iterations(1);
 

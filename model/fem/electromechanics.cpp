@@ -85,6 +85,7 @@ std::string LeftVentricle3DOptions::validate() const {
     return "bulk_modulus must be > 0 with element_order 1 (P1-P1 is not inf-sup stable at exact incompressibility)";
   if (!(pressure_stabilization >= 0) || std::isinf(pressure_stabilization))
     return "pressure_stabilization must be finite and >= 0";
+  if (!(grad_div >= 0) || std::isinf(grad_div)) return "grad_div must be finite and >= 0";
   if (pressure_stabilization > 0 && element_order != 1)
     return "pressure_stabilization needs element_order 1 (Taylor-Hood tetrahedra are inf-sup stable)";
   if (quadrature_degree != 1 && quadrature_degree != 2 && quadrature_degree != 5)
@@ -303,6 +304,7 @@ struct LeftVentricle3D::Impl {
       MechanicsOptions mo;
       mo.bulk_modulus = options.bulk_modulus;
       mo.pressure_stabilization = options.pressure_stabilization;
+      mo.grad_div = options.grad_div;
       mo.quadrature_degree = options.quadrature_degree;
       mo.pressure_surfaces = {kEndocardium};
       mo.load_steps = options.inflation_steps;
@@ -518,12 +520,13 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
     cur.Pv += r * (xo.Pv - hist_Pv);
     cur.Par += r * (xo.Par - hist_Par);
   }
-  if (options.pressure_stabilization > 0) {
-    // tau of the stabilisation from the step's start point u^n with this step's active and viscous
-    // stiffness (Mechanics::update_stabilization): a function of the step's inputs, the same in
-    // run() and advance(). The hook's side effects are harmless here: E^n is u^n's strain either
-    // way, and the evaluations below overwrite the trial states. u^n is a converged point (every
-    // J > 0), so the assembly succeeds; a BCS state the hook rejects is the evaluations' to report.
+  if (options.pressure_stabilization > 0 || options.grad_div > 0) {
+    // tau of the stabilisation and gamma of the grad-div term from the step's start point u^n with
+    // this step's active and viscous stiffness (Mechanics::update_stabilization): a function of the
+    // step's inputs, the same in run() and advance(). The hook's side effects are harmless here: E^n
+    // is u^n's strain either way, and the evaluations below overwrite the trial states. u^n is a
+    // converged point (every J > 0), so the assembly succeeds; a BCS state the hook rejects is the
+    // evaluations' to report.
     want_tangent = true;
     mc.update_stabilization(xo.ms, Load{xo.Pv, 0.0}, hook);
   }
@@ -611,6 +614,7 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
       // bit for bit as before (the assembly is a pure function of the point).
       if (!cur.has_K && !evaluate(cur, true)) return -1;
       ++factorizations;
+      if (options.grad_div > 0) solver.set_schur_mass(mc.schur_mass());
       if (!solver.factorize(cur.K)) return -1;
       have_factors = factors_fresh = true;
       steps.clear();

@@ -106,6 +106,11 @@ struct LeftVentricle3DOptions {
   // MechanicsOptions::pressure_stabilization): 0 (default) none; with it the iterative solver's
   // GMRES iterations stop growing with the mesh (docs/models.md s.4.4 and s.4.8, "Cost").
   double pressure_stabilization = 0.0;
+  // Grad-div term beta (MechanicsOptions::grad_div): 0 (default) none; with it the iterative
+  // solver's Schur complement approximation is the pressure mass over the stiffness, which holds on
+  // finer meshes, but it changes the discretisation (EF +0.1 to +0.4 points on the linear meshes;
+  // docs/models.md s.4.4, "Grad-div term"; s.4.8, "The grad-div term in the beat").
+  double grad_div = 0.0;
   int n_transmural = 1;
   int n_longitudinal = 6;      // a multiple of 3 puts node rings on the AHA levels
   int n_circumferential = 12;  // a multiple of 6 (nodes on the 60-degree AHA bounds), >= 12

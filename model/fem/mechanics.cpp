@@ -59,6 +59,8 @@ std::string MechanicsOptions::validate() const {
   if (!(pressure_stabilization >= 0) || std::isinf(pressure_stabilization))
     return "pressure_stabilization must be finite and >= 0";
   if (pressure_stabilization > 0 && displacement_only) return "pressure_stabilization needs the pressure unknowns";
+  if (!(grad_div >= 0) || std::isinf(grad_div)) return "grad_div must be finite and >= 0";
+  if (grad_div > 0 && displacement_only) return "grad_div needs the pressure unknowns";
   return {};
 }
 
@@ -72,6 +74,16 @@ IterativeOptions iterative_options_for(const MechanicsOptions& o) {
   if (o.pressure_stabilization > 0) {
     io.schur = IterativeOptions::Schur::kDiagonal;
     io.aggressive_levels = 1;
+  }
+  // With the grad-div term the displacement block is stiff against dilatations too, and the true
+  // Schur complement is spectrally the pressure mass over the stiffness (Stokes-like): on the
+  // unloaded lv-3d tangent GMRES then takes 9-10 iterations to 1e-2 from 10 384 to 43 224 unknowns
+  // (docs/models.md s.4.4, "Grad-div term").
+  // That matrix is a mass plus a small Laplacian, so one V-cycle applies it as well as two (the same
+  // GMRES iterations on the lv-3d tangents of 3 468-43 224 unknowns).
+  if (o.grad_div > 0) {
+    io.schur = IterativeOptions::Schur::kMass;
+    io.schur_cycles = 1;
   }
   return io;
 }
@@ -178,27 +190,59 @@ Mechanics::Mechanics(const Mesh& mesh, std::vector<Frame> frames, std::unique_pt
       // Edge of the regular tetrahedron of volume vol: vol = a^3 / (6 sqrt 2).
       stab_h2_[e] = std::pow(6.0 * std::sqrt(2.0) * vol, 2.0 / 3.0);
     }
+  }
+  if (opt_.pressure_stabilization > 0 || opt_.grad_div > 0) {
     stab_mu_ref_.assign(ne, 0.0);
-    stab_tau_.assign(ne, 0.0);
+    if (opt_.pressure_stabilization > 0) stab_tau_.assign(ne, 0.0);
+    if (opt_.grad_div > 0) grad_div_gamma_.assign(ne, 0.0);
     std::vector<double> mu;
     if (!assemble_impl(initial_state(), Load{}, nullptr, nullptr, {}, &mu))
       throw std::invalid_argument("Mechanics: the unloaded reference could not be assembled");
     for (size_t e = 0; e < ne; ++e)
       if (!(mu[e] > 0))
-        throw std::invalid_argument("Mechanics: pressure_stabilization needs a material with a positive shear "
-                                    "stiffness in the reference (element " + std::to_string(e) + ")");
+        throw std::invalid_argument("Mechanics: pressure_stabilization and grad_div need a material with a "
+                                    "positive shear stiffness in the reference (element " +
+                                    std::to_string(e) + ")");
     stab_mu_ref_ = mu;
     set_stabilization_tau(mu);
   }
 }
 
 void Mechanics::set_stabilization_tau(const std::vector<double>& mu) {
+  elem_mu_.resize(mu.size());
+  for (size_t e = 0; e < mu.size(); ++e) elem_mu_[e] = std::max(mu[e], stab_mu_ref_[e]);
   for (size_t e = 0; e < stab_tau_.size(); ++e)
-    stab_tau_[e] = opt_.pressure_stabilization * stab_h2_[e] / (2.0 * std::max(mu[e], stab_mu_ref_[e]));
+    stab_tau_[e] = opt_.pressure_stabilization * stab_h2_[e] / (2.0 * elem_mu_[e]);
+  for (size_t e = 0; e < grad_div_gamma_.size(); ++e) grad_div_gamma_[e] = 2.0 * opt_.grad_div * elem_mu_[e];
+}
+
+SparseMatrix Mechanics::schur_mass() const {
+  const int nv = mesh_.n_vertices;
+  SparseMatrix M(nv, nv);
+  if (grad_div_gamma_.empty()) return M;
+  const int nu = 3 * mesh_.n_nodes();
+  std::vector<Eigen::Triplet<double, int>> trip;
+  trip.reserve(static_cast<size_t>(mesh_.n_tets()) * 16);
+  for (Eigen::Index e = 0; e < mesh_.tets.rows(); ++e) {
+    Eigen::Matrix3d J0;
+    for (int c = 0; c < 3; ++c)
+      J0.col(c) = (mesh_.nodes.row(mesh_.tets(e, c + 1)) - mesh_.nodes.row(mesh_.tets(e, 0))).transpose();
+    // int N_k N_l dV = V (1 + delta_kl) / 20 for the P1 functions of a straight tetrahedron.
+    const size_t es = static_cast<size_t>(e);
+    const double w = J0.determinant() / 6.0 / 20.0 / (2.0 * elem_mu_[es] + grad_div_gamma_[es]);
+    for (int k = 0; k < 4; ++k)
+      for (int l = 0; l < 4; ++l) {
+        const int a = mesh_.tets(e, k), b = mesh_.tets(e, l);
+        if (fixed_[static_cast<size_t>(nu + a)] || fixed_[static_cast<size_t>(nu + b)]) continue;
+        trip.emplace_back(a, b, w * (k == l ? 2.0 : 1.0));
+      }
+  }
+  M.setFromTriplets(trip.begin(), trip.end());
+  return M;
 }
 
 bool Mechanics::update_stabilization(const State& s, const Load& load, const StressHook& hook) {
-  if (stab_tau_.empty()) return true;
+  if (stab_mu_ref_.empty()) return true;
   std::vector<double> mu;
   if (!assemble_impl(s, load, nullptr, nullptr, hook, &mu)) return false;
   set_stabilization_tau(mu);
@@ -365,6 +409,7 @@ bool Mechanics::assemble_impl(const State& s, const Load& load, Eigen::VectorXd*
       if (tangent) Ke.setZero();
       double grad2 = 0.0, element_diag = 0.0;  // sum_q sum_a |grad N_a|^2 dV, the diagonal (element_mu)
       const double ta = load.active_tension * active_scale_[static_cast<size_t>(e)];
+      const double gd = grad_div_gamma_.empty() ? 0.0 : grad_div_gamma_[static_cast<size_t>(e)];
       for (int q = 0; q < nqp_; ++q) {
         const size_t eq = static_cast<size_t>(e) * static_cast<size_t>(nqp_) + static_cast<size_t>(q);
         const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>> g(
@@ -389,13 +434,19 @@ bool Mechanics::assemble_impl(const State& s, const Load& load, Eigen::VectorXd*
         const Eigen::Matrix3d FiT = F.inverse().transpose();
         const Eigen::Vector4d& Np = np_[static_cast<size_t>(q)];
         const double pq = Np.dot(pe);
-        const Eigen::Matrix3d P = F * S - pq * J * FiT;
+        // Grad-div term gd / 2 (J - 1 + p / kappa)^2: the displacement rows see the pressure
+        // pq - gd c, the pressure rows -(1 - gd / kappa) c (c the constraint's value at the point).
+        const double cq = (J - 1.0) + pq * inv_kappa;
+        const double peff = pq - gd * cq;
+        const Eigen::Matrix3d P = F * S - peff * J * FiT;
         // Residual.
         const Eigen::MatrixXd gP = g * P.transpose();  // npt x 3: (a, i) = sum_I g(a,I) P(i,I)
         for (int a = 0; a < npt_; ++a)
           for (int i = 0; i < 3; ++i) Re[3 * a + i] += dV * gP(a, i);
         const double pen = pressure_mass_.empty() ? pq * inv_kappa : 0.0;  // else below, exactly
         for (int k = 0; k < 4; ++k) Re[3 * npt_ + k] -= dV * ((J - 1.0) + pen) * Np[k];
+        if (gd != 0.0 && inv_kappa != 0.0)
+          for (int k = 0; k < 4; ++k) Re[3 * npt_ + k] += dV * gd * inv_kappa * cq * Np[k];
         if (element_mu) {
           // The displacement diagonal of the element tangent, sum_a sum_i g_a^T A_i g_a with the
           // 3x3 blocks A_i(I, J) = A(iI, iJ) = sum_KL F_iK D(KI, LJ) F_iL + S_IJ (the pressure's
@@ -427,7 +478,7 @@ bool Mechanics::assemble_impl(const State& s, const Load& load, Eigen::VectorXd*
             for (int Jj = 0; Jj < 3; ++Jj) {
               A(3 * i + I, 3 * i + Jj) += S(I, Jj);
               for (int j = 0; j < 3; ++j)
-                A(3 * i + I, 3 * j + Jj) -= pq * J * (FiT(i, I) * FiT(j, Jj) - FiT(i, Jj) * FiT(j, I));
+                A(3 * i + I, 3 * j + Jj) -= peff * J * (FiT(i, I) * FiT(j, Jj) - FiT(i, Jj) * FiT(j, I));
             }
         for (int a = 0; a < npt_; ++a) {
           for (int i = 0; i < 3; ++i)
@@ -438,11 +489,19 @@ bool Mechanics::assemble_impl(const State& s, const Load& load, Eigen::VectorXd*
               for (int j = 0; j < 3; ++j)
                 Ke(3 * a + i, 3 * b + j) +=
                     dV * (M(i, 3 * j) * g(b, 0) + M(i, 3 * j + 1) * g(b, 1) + M(i, 3 * j + 2) * g(b, 2));
-          // K_up(a i, k) = -J FiT_iI g(a, I) Np_k
+          // K_up(a i, k) = -J FiT_iI g(a, I) Np_k (1 - gd / kappa)
           const Eigen::Vector3d fg = FiT * g.row(a).transpose();
+          if (gd != 0.0) {
+            // gd dJ (x) dJ, dJ = J F^-T : grad v
+            for (int b = 0; b < npt_; ++b) {
+              const Eigen::Vector3d fgb = FiT * g.row(b).transpose();
+              for (int i = 0; i < 3; ++i)
+                for (int j = 0; j < 3; ++j) Ke(3 * a + i, 3 * b + j) += dV * gd * J * J * fg[i] * fgb[j];
+            }
+          }
           for (int i = 0; i < 3; ++i)
             for (int k = 0; k < 4; ++k) {
-              const double v = -dV * J * fg[i] * Np[k];
+              const double v = -dV * J * fg[i] * Np[k] * (1.0 - gd * inv_kappa);
               Ke(3 * a + i, 3 * npt_ + k) += v;
               Ke(3 * npt_ + k, 3 * a + i) += v;
             }
@@ -450,6 +509,10 @@ bool Mechanics::assemble_impl(const State& s, const Load& load, Eigen::VectorXd*
         if (inv_kappa != 0.0 && pressure_mass_.empty())
           for (int k = 0; k < 4; ++k)
             for (int l = 0; l < 4; ++l) Ke(3 * npt_ + k, 3 * npt_ + l) -= dV * inv_kappa * Np[k] * Np[l];
+        if (gd != 0.0 && inv_kappa != 0.0)
+          for (int k = 0; k < 4; ++k)
+            for (int l = 0; l < 4; ++l)
+              Ke(3 * npt_ + k, 3 * npt_ + l) += dV * gd * inv_kappa * inv_kappa * Np[k] * Np[l];
       }
       if (!ok_local) continue;
       if (!pressure_mass_.empty()) {
@@ -612,6 +675,7 @@ Summary Mechanics::solve(State& state, const Load& from, const Load& to, const P
         break;
       }
       t0 = Clock::now();
+      if (!grad_div_gamma_.empty()) solver.set_schur_mass(schur_mass());
       const bool fact = solver.factorize(K);
       if (!fact) {
         sum.solve_seconds += seconds_since(t0);

@@ -58,6 +58,14 @@ struct MechanicsOptions {
   // tetrahedron of the element's volume and mu_e the element's current shear stiffness read from
   // its tangent (update_stabilization; docs/models.md s.4.4, "Pressure stabilisation").
   double pressure_stabilization = 0.0;
+  // Grad-div (augmented Lagrangian) term beta >= 0 (0: none): + gamma_e / 2 int (J - 1 + p /
+  // kappa)^2 dV per element, gamma_e = 2 beta mu_e with mu_e the stabilisation's shear stiffness.
+  // It vanishes with the constraint, so the continuous solution is unchanged (Olshanskii & Reusken
+  // 2004, Math Comp 73:1699), and gives the displacement block the dilatational stiffness that an
+  // isochoric law lacks; the iterative solver then takes the pressure mass over the stiffness as
+  // its Schur complement approximation (schur_mass(); docs/models.md s.4.4, "Grad-div term"). The
+  // discrete solution moves: the P1 constraint holds only against the vertex pressures.
+  double grad_div = 0.0;
   std::string validate() const;
 };
 
@@ -147,17 +155,24 @@ class Mechanics {
   // converged state on return.
   Summary solve(State& state, const Load& from, const Load& to, const ProgressCallback& progress = {});
 
-  // Pressure stabilisation (MechanicsOptions::pressure_stabilization > 0; a no-op otherwise):
-  // recomputes tau_e = alpha h_e^2 / (2 mu_e) from the element tangents at (s, load, hook), mu_e =
-  // sum of the element's displacement diagonal / (4 sum_a int |grad N_a|^2 dV) (the shear modulus
-  // mu of an isotropic law with no bulk part, whose diagonal is (4 mu) int |grad N_a|^2 dV per
-  // node), at least its value in the unloaded reference (passive material alone). The constructor
-  // computes that reference value; solve() updates tau at each load step's start and the heartbeat
-  // at each time step's start, so tau is a function of the step's start point. Returns false when
-  // the assembly at s failed (tau unchanged).
+  // Pressure stabilisation and grad-div term (MechanicsOptions::pressure_stabilization > 0 or
+  // grad_div > 0; a no-op otherwise): recomputes tau_e = alpha h_e^2 / (2 mu_e) and gamma_e =
+  // 2 beta mu_e from the element tangents at (s, load, hook), mu_e = sum of the element's
+  // displacement diagonal / (4 sum_a int |grad N_a|^2 dV) (the shear modulus mu of an isotropic law
+  // with no bulk part, whose diagonal is (4 mu) int |grad N_a|^2 dV per node), at least its value in
+  // the unloaded reference (passive material alone). The constructor computes that reference value;
+  // solve() updates tau and gamma at each load step's start and the heartbeat at each time step's
+  // start, so they are functions of the step's start point. Returns false when the assembly at s
+  // failed (tau and gamma unchanged).
   bool update_stabilization(const State& s, const Load& load, const StressHook& hook = {});
   // tau_e per tetrahedron [m^2/Pa] (empty without stabilisation).
   const std::vector<double>& stabilization_tau() const { return stab_tau_; }
+  // With grad_div > 0: the pressure mass weighted by the elements' stiffness, sum_e M_e / (2 mu_e +
+  // gamma_e) with M_e = int N_k N_l dV (P1, exact), n_vertices square, in the pressure numbering
+  // (pressure unknown k is vertex k); rows of fixed pressures empty. The iterative solver's Schur
+  // complement approximation is this minus the pressure block (IterativeOptions::Schur::kMass,
+  // SparseSolver::set_schur_mass). Follows update_stabilization(). Empty without grad_div.
+  SparseMatrix schur_mass() const;
 
   // Current position of node n.
   Eigen::Vector3d position(const State& s, int node) const;
@@ -167,7 +182,8 @@ class Mechanics {
 
  private:
   void build_pattern();
-  // tau_e = alpha h_e^2 / (2 max(mu_e, reference mu_e)) from the elements' shear stiffness mu.
+  // mu_e = max(mu, reference mu_e) per element, and from it tau_e = alpha h_e^2 / (2 mu_e) and the
+  // grad-div gamma_e = 2 beta mu_e.
   void set_stabilization_tau(const std::vector<double>& mu);
   // assemble(); with element_mu, also each element's shear stiffness (update_stabilization).
   bool assemble_impl(const State& s, const Load& load, Eigen::VectorXd* residual, SparseMatrix* tangent,
@@ -190,6 +206,7 @@ class Mechanics {
   // [m^2], the reference shear stiffness mu_e [Pa] and tau_e [m^2/Pa].
   std::vector<Eigen::Matrix4d> stab_laplacian_;
   std::vector<double> stab_h2_, stab_mu_ref_, stab_tau_;
+  std::vector<double> elem_mu_, grad_div_gamma_;  // mu_e [Pa] (stabilisation or grad-div) and gamma_e [Pa]
   std::vector<int> load_faces_;      // indices into mesh.faces
   SparseMatrix pattern_;
   std::vector<int> elem_pos_;  // value positions per element local (nloc x nloc)

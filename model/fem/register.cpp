@@ -25,7 +25,7 @@ LeftVentricle3DOptions read_lv3d_options(const OptionReader& node) {
                    "inflation_steps", "min_beats", "max_beats", "periodic_tolerance", "output_every",
                    "newton_tolerance", "newton_max_iterations", "activation", "conduction_velocity",
                    "linear_solver", "linear_tolerance", "geometry", "active_stress", "element_order",
-                   "bulk_modulus", "pressure_stabilization", "coarse_correction"});
+                   "bulk_modulus", "pressure_stabilization", "grad_div", "coarse_correction"});
   if (node.has("geometry")) {
     // The truncated ellipsoid's radii and base plane (EllipsoidGeometry, docs/models.md s.4.1);
     // keys left out keep the human-sized values.
@@ -59,6 +59,7 @@ LeftVentricle3DOptions read_lv3d_options(const OptionReader& node) {
   o.element_order = node.integer("element_order", o.element_order);
   o.bulk_modulus = node.quantity("bulk_modulus", "Pa", o.bulk_modulus);
   o.pressure_stabilization = node.number("pressure_stabilization", o.pressure_stabilization);
+  o.grad_div = node.number("grad_div", o.grad_div);
   o.fibre_endo_deg = node.number("fibre_endo", o.fibre_endo_deg);
   o.fibre_epi_deg = node.number("fibre_epi", o.fibre_epi_deg);
   if (node.has("base")) o.base = parse_base_condition(node.choice("base", {"sliding", "fixed"}));

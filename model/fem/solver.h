@@ -39,7 +39,10 @@ struct IterativeOptions {
   // takes 290-760 iterations on the linear lv-3d tangents against 80-150); kAuto (default) kSparse
   // for equal-order elements (n_u = 3 n_p: every node carries a pressure) and kDiagonal otherwise
   // (Taylor-Hood, where the sparse form costs more on the larger meshes; docs/models.md s.4.4).
-  enum class Schur { kAuto, kDiagonal, kSparse };
+  // kMass: S^ = M_w - C with M_w the pressure mass over the elements' stiffness that the caller
+  // gives (set_schur_mass; Mechanics::schur_mass with the grad-div term), applied the same way;
+  // with the grad-div term the true Schur complement is spectrally that matrix, whatever the mesh.
+  enum class Schur { kAuto, kDiagonal, kSparse, kMass };
   Schur schur = Schur::kAuto;
   int schur_cycles = 2;
   // Levels of the displacement block's hierarchy coarsened aggressively (hypre's aggressive HMIS
@@ -87,6 +90,12 @@ class SparseSolver {
   // K_c is factorised dense: std::invalid_argument above kMaxCoarseSize columns.
   static constexpr int kMaxCoarseSize = 4000;
   void set_coarse_space(Eigen::SparseMatrix<double, Eigen::ColMajor, int> P);
+
+  // The weighted pressure mass M_w (n_p x n_p, symmetric positive semi-definite) of the Schur
+  // complement approximation S^ = M_w - C of IterativeOptions::Schur::kMass, used by the next
+  // factorize() (kAmg only; ignored otherwise). factorize() fails with kMass when its size is not
+  // the pressure block's.
+  void set_schur_mass(Eigen::SparseMatrix<double, Eigen::ColMajor, int> Mw);
 
   // Direct: LU factorisation; kAmg: the preconditioner of A (kept with a copy of A). false when the
   // matrix is (numerically) singular or, for kAmg, set_saddle_point was not called or hypre failed.

@@ -159,6 +159,87 @@ TEST(Mechanics, PressureStabilisationIsTheBrezziPitkarantaTermWithTheTangentsShe
   EXPECT_LT(stab.stabilization_tau()[0], 0.999 * tau0[0]);
 }
 
+// The grad-div term (MechanicsOptions::grad_div beta): + gamma_e / 2 int (J - 1 + p / kappa)^2 dV
+// with gamma_e = 2 beta mu_e. (i) It vanishes with the constraint: on a uniform dilation with the
+// pressure that satisfies it (J - 1 + p / kappa = 0 everywhere), and on an isochoric uniform
+// stretch with kappa infinite, the residual is the one without the term. (ii) Its tangent is
+// consistent, with a finite and an infinite bulk modulus and with the stabilisation. (iii) In the
+// unloaded reference it adds gamma int div u div v dV to the displacement block: on v = x (div v
+// = 3) that is 9 gamma V, with gamma = 2 beta mu = beta C b for Guccione with equal b's on the full
+// strain. (iv) schur_mass() is sum_e M_e / (2 mu_e + gamma_e): its entries sum to V / (C b (1 +
+// beta)). (ii) also on Taylor-Hood tetrahedra with the isochoric law.
+TEST(Mechanics, GradDivTermVanishesWithTheConstraintAndIsConsistent) {
+  const Mesh mesh = box_mesh(2e-3, 1e-3, 1e-3, 2, 1, 1, 1);
+  const double C = 4e3, b = 3.0, beta = 0.7, V = 2e-9;
+  auto make = [&](double beta_, double kappa, double alpha) {
+    MechanicsOptions o;
+    o.bulk_modulus = kappa;
+    o.quadrature_degree = 1;
+    o.pressure_surfaces = {kBottom};
+    o.pressure_stabilization = alpha;
+    o.grad_div = beta_;
+    GuccioneParameters gp{C, b, b, b};
+    gp.isochoric = false;
+    return Mechanics(mesh, uniform_fibres(mesh, Eigen::Vector3d(1, 0.3, 0.2), Eigen::Vector3d::UnitY()),
+                     std::make_unique<Guccione>(gp), o);
+  };
+  // (i)
+  for (const double kappa : {5e4, 0.0}) {
+    Mechanics plain = make(0.0, kappa, 0.1), gd = make(beta, kappa, 0.1);
+    State s = plain.initial_state();
+    Eigen::Matrix3d F = Eigen::Matrix3d::Identity();
+    if (kappa > 0) {
+      F *= 1.01;
+      s.p.setConstant(-kappa * (F.determinant() - 1.0));
+    } else {
+      F.diagonal() << 1.02, 1.0 / std::sqrt(1.02), 1.0 / std::sqrt(1.02);
+      s.p.setConstant(1.5e3);
+    }
+    for (int n = 0; n < mesh.n_nodes(); ++n)
+      s.u.segment<3>(3 * n) = (F - Eigen::Matrix3d::Identity()) * mesh.nodes.row(n).transpose();
+    Eigen::VectorXd Rp, Rg;
+    ASSERT_TRUE(plain.assemble(s, Load{2e3, 1e3}, &Rp, nullptr));
+    ASSERT_TRUE(gd.assemble(s, Load{2e3, 1e3}, &Rg, nullptr));
+    EXPECT_LT((Rg - Rp).norm(), 1e-12 * Rp.norm()) << "kappa " << kappa;
+    // (ii)
+    EXPECT_LT(tangent_error(gd, random_state(gd, 5e-5, 1e3, 8), Load{2e3, 1e3}), 1e-6) << "kappa " << kappa;
+  }
+  {
+    Mechanics unstabilised = make(beta, 5e4, 0.0);
+    EXPECT_LT(tangent_error(unstabilised, random_state(unstabilised, 5e-5, 1e3, 9), Load{2e3, 1e3}), 1e-6);
+    // Taylor-Hood (quadratic tetrahedra, 14-point rule), exactly incompressible.
+    MechanicsOptions o;
+    o.pressure_surfaces = {kBottom};
+    o.grad_div = beta;
+    const Mesh quadratic = box_mesh(1e-3, 1e-3, 1e-3, 1, 1, 1, 2);
+    Mechanics th(quadratic, uniform_fibres(quadratic, Eigen::Vector3d(1, 0.3, 0.2), Eigen::Vector3d::UnitY()),
+                 std::make_unique<Guccione>(GuccioneParameters{2e3, 8, 2, 4}), o);
+    EXPECT_LT(tangent_error(th, random_state(th, 5e-5, 1e3, 10), Load{3e3, 5e3}), 1e-6);
+  }
+  // (iii)
+  Mechanics plain = make(0.0, 5e4, 0.0), gd = make(beta, 5e4, 0.0);
+  SparseMatrix Kp, Kg;
+  Eigen::VectorXd R;
+  ASSERT_TRUE(plain.assemble(plain.initial_state(), Load{}, &R, &Kp));
+  ASSERT_TRUE(gd.assemble(gd.initial_state(), Load{}, &R, &Kg));
+  const int nu = 3 * mesh.n_nodes(), np = mesh.n_vertices;
+  Eigen::VectorXd x(nu);
+  for (int n = 0; n < mesh.n_nodes(); ++n) x.segment<3>(3 * n) = mesh.nodes.row(n).transpose();
+  const Eigen::MatrixXd dK = Eigen::MatrixXd(Kg) - Eigen::MatrixXd(Kp);
+  const double gamma = beta * C * b;
+  EXPECT_NEAR(x.dot(dK.topLeftCorner(nu, nu) * x), 9.0 * gamma * V, 1e-10 * 9.0 * gamma * V);
+  // kappa = 5e4: the pressure coupling scales by (1 - gamma / kappa), the pressure block gains gamma / kappa^2 M.
+  const Eigen::MatrixXd Bt_plain = Eigen::MatrixXd(Kp).topRightCorner(nu, np);
+  const Eigen::MatrixXd Bt_gd = Eigen::MatrixXd(Kg).topRightCorner(nu, np);
+  EXPECT_LT((Bt_gd - (1.0 - gamma / 5e4) * Bt_plain).norm(), 1e-12 * Bt_plain.norm());
+  // (iv)
+  EXPECT_EQ(plain.schur_mass().rows(), np);
+  EXPECT_EQ(plain.schur_mass().nonZeros(), 0);
+  const SparseMatrix Mw = gd.schur_mass();
+  EXPECT_NEAR(Eigen::MatrixXd(Mw).sum(), V / (C * b * (1.0 + beta)), 1e-10 * V / (C * b));
+  EXPECT_LT((Eigen::MatrixXd(Mw) - Eigen::MatrixXd(Mw).transpose()).norm(), 1e-15 * Eigen::MatrixXd(Mw).norm());
+}
+
 TEST(Mechanics, FollowerPressureOnAClosedSurfaceHasNoNetForce) {
   // A cube loaded by pressure on all faces: the resultant of the traction vanishes in any
   // configuration (closed surface), so the residual sums to zero per direction.
