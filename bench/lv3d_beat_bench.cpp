@@ -163,7 +163,9 @@ void BM_Lv3dBeatBySize(benchmark::State& st) {
   beat(st, o, static_cast<int>(st.range(3)));
 }
 // The same with the iterative solver (GMRES + BoomerAMG) as an inexact Newton method: arguments
-// (n_transmural, n_longitudinal, n_circumferential, threads, k) with linear_tolerance 10^-k.
+// (n_transmural, n_longitudinal, n_circumferential, threads, k, beta) with linear_tolerance 10^-k
+// and grad_div beta (0 or 1; with 1 the mass Schur approximation, docs/models.md s.4.8, "The
+// grad-div term in the beat").
 void BM_Lv3dBeatBySizeAmg(benchmark::State& st) {
   LeftVentricle3DOptions o;
   o.n_transmural = static_cast<int>(st.range(0));
@@ -171,6 +173,7 @@ void BM_Lv3dBeatBySizeAmg(benchmark::State& st) {
   o.n_circumferential = static_cast<int>(st.range(2));
   o.linear_solver = LinearSolver::kAmg;
   o.linear_tolerance = std::pow(10.0, -static_cast<double>(st.range(4)));
+  o.grad_div = static_cast<double>(st.range(5));
   beat(st, o, static_cast<int>(st.range(3)));
 }
 // Linear tetrahedra (element_order 1, P1-P1 with a 10 MPa bulk modulus, one quadrature point;
@@ -304,8 +307,10 @@ BENCHMARK(BM_Lv3dBeatLinearStabilized)
     ->UseRealTime();
 
 BENCHMARK(BM_Lv3dBeatBySizeAmg)
-    ->ArgsProduct({{1}, {6}, {12}, {1}, {10, 6, 4, 2}})
-    ->Args({1, 9, 18, 1, 2})->Args({1, 12, 24, 1, 2})->Args({2, 12, 24, 1, 2})
+    ->ArgsProduct({{1}, {6}, {12}, {1}, {10, 6, 4, 2}, {0}})
+    ->ArgsProduct({{1}, {6}, {12}, {1}, {2}, {1}})
+    ->ArgsProduct({{1}, {9}, {18}, {1}, {2}, {0, 1}})->ArgsProduct({{1}, {12}, {24}, {1}, {2}, {0, 1}})
+    ->Args({2, 12, 24, 1, 2, 0})
     ->Unit(benchmark::kSecond)
     ->Iterations(1)
     ->UseRealTime();
