@@ -224,12 +224,12 @@ SparseMatrix Mechanics::schur_mass() const {
   std::vector<Eigen::Triplet<double, int>> trip;
   trip.reserve(static_cast<size_t>(mesh_.n_tets()) * 16);
   for (Eigen::Index e = 0; e < mesh_.tets.rows(); ++e) {
-    Eigen::Matrix3d J0;
-    for (int c = 0; c < 3; ++c)
-      J0.col(c) = (mesh_.nodes.row(mesh_.tets(e, c + 1)) - mesh_.nodes.row(mesh_.tets(e, 0))).transpose();
-    // int N_k N_l dV = V (1 + delta_kl) / 20 for the P1 functions of a straight tetrahedron.
+    // int N_k N_l dV = V (1 + delta_kl) / 20 for the P1 functions of a straight tetrahedron, V the
+    // sum of the element's quadrature weights (dv_).
     const size_t es = static_cast<size_t>(e);
-    const double w = J0.determinant() / 6.0 / 20.0 / (2.0 * elem_mu_[es] + grad_div_gamma_[es]);
+    double vol = 0.0;
+    for (int q = 0; q < nqp_; ++q) vol += dv_[es * static_cast<size_t>(nqp_) + static_cast<size_t>(q)];
+    const double w = vol / 20.0 / (2.0 * elem_mu_[es] + grad_div_gamma_[es]);
     for (int k = 0; k < 4; ++k)
       for (int l = 0; l < 4; ++l) {
         const int a = mesh_.tets(e, k), b = mesh_.tets(e, l);

@@ -496,44 +496,40 @@ bool SparseSolver::factorize(const SparseMatrixInt& A) {
     const bool mass_schur = iterative_.schur == IterativeOptions::Schur::kMass;
     const bool sparse_schur = iterative_.schur == IterativeOptions::Schur::kSparse ||
                               (iterative_.schur == IterativeOptions::Schur::kAuto && nu == 3 * np);
-    if (mass_schur) {
-      // S^ = M_w - C: with the grad-div term (Mechanics::schur_mass) the displacement block bounds
-      // the divergence, as the Stokes operator does, so B A^-1 B^T is spectrally the pressure mass
-      // over the stiffness (Elman, Silvester & Wathen 2014, s.9.2; Benzi & Olshanskii 2006), and
-      // -C adds the stabilisation's Laplacian kept whole. Measured on the unloaded stabilised
-      // lv-3d tangent (bench/fem_bench BM_Lv3dSchurSpectrum, docs/models.md s.4.4): the true Schur
-      // complement against it has its eigenvalues in [0.69, 1.97] / [0.66, 1.98] on the medium /
-      // fine mesh, against [0.27, 202] / [0.19, 367] for SIMPLE's diagonal without the term.
-      if (m.schur_mass.rows() != np || m.schur_mass.cols() != np) return false;
-      RowMatrix Sh = RowMatrix(m.schur_mass) - C;
-      for (Eigen::Index i = 0; i < np; ++i)
-        if (!(Sh.coeff(i, i) > 0)) Sh.coeffRef(i, i) = W[i];
-      Sh.makeCompressed();
-      m.amg_schur = std::make_unique<BoomerAmg>(Sh, iterative_.strong_threshold, 1, iterative_.schur_cycles);
-      if (!m.amg_schur->ok()) {
-        m.amg_schur.reset();
-        return false;
-      }
-    } else if (!sparse_schur) {
+    if (!mass_schur && !sparse_schur) {
       // Shat = diag(B |diag(A_g)|^-1 B^T) - diag(C) ~ -(C - B A_g^-1 B_g^T), the SIMPLE diagonal of T K.
       m.schur = simple_diagonal(Ag.diagonal()) - C.diagonal();
       for (Eigen::Index i = 0; i < np; ++i)
         if (!(m.schur[i] > 0)) m.schur[i] = W[i];
     } else {
-      // The sparse Schur approximation Shat = B |diag(A_g)|^-1 B^T - C, the matrix whose diagonal is
-      // SIMPLE's (Elman et al. 2008, s.3), applied by BoomerAMG V-cycles on it (one function per
-      // vertex). It matters for linear tetrahedra: P1-P1 is not inf-sup stable, so pressure modes q
-      // with B^T q ~ 0 make the true Schur complement B A^-1 B^T - C nearly as small as the penalty
-      // -C = M_p / kappa on them (ratio kappa / mu ~ 1e3-1e4), which no diagonal represents;
-      // B D^-1 B^T vanishes on the same modes. Measured on tangents of the linear lv-3d beat
-      // (docs/models.md s.4.4): GMRES to 1e-8 in 80-150 iterations against 290-760 with the
-      // diagonal. On Taylor-Hood (P2-P1) its iterations grow faster and its wider stencil costs
-      // more (Land problem 2 tangent, K = 1 / 2 / 3: 42 / 69 / 97 iterations against 51 / 69 / 76,
-      // 0.79 / 1.11 / 1.41x the time), so kAuto keeps the diagonal there.
-      const Eigen::VectorXd dinv = Ag.diagonal().cwiseAbs().cwiseInverse();
-      RowMatrix Sh = RowMatrix(B * dinv.asDiagonal() * m.Bt) - C;
-      // A row without a positive diagonal (a pressure without volume coupling: empty rows of B and
-      // C) gets W_i (1 for an empty row), so that the V-cycle's smoother has a diagonal to invert.
+      RowMatrix Sh;
+      if (mass_schur) {
+        // S^ = M_w - C: with the grad-div term (Mechanics::schur_mass) the displacement block bounds
+        // the divergence, as the Stokes operator does, so B A^-1 B^T is spectrally the pressure mass
+        // over the stiffness (Elman, Silvester & Wathen 2014, s.9.2; Benzi & Olshanskii 2006), and
+        // -C adds the stabilisation's Laplacian kept whole. Measured on the unloaded stabilised
+        // lv-3d tangent (bench/fem_bench BM_Lv3dSchurSpectrum, docs/models.md s.4.4): the true Schur
+        // complement against it has its eigenvalues in [0.69, 1.97] / [0.66, 1.98] on the medium /
+        // fine mesh, against [0.27, 202] / [0.19, 367] for SIMPLE's diagonal without the term.
+        if (m.schur_mass.rows() != np || m.schur_mass.cols() != np) return false;
+        Sh = RowMatrix(m.schur_mass) - C;
+      } else {
+        // The sparse Schur approximation Shat = B |diag(A_g)|^-1 B^T - C, the matrix whose diagonal is
+        // SIMPLE's (Elman et al. 2008, s.3). It matters for linear tetrahedra: P1-P1 is not inf-sup
+        // stable, so pressure modes q with B^T q ~ 0 make the true Schur complement B A^-1 B^T - C
+        // nearly as small as the penalty -C = M_p / kappa on them (ratio kappa / mu ~ 1e3-1e4),
+        // which no diagonal represents; B D^-1 B^T vanishes on the same modes. Measured on tangents
+        // of the linear lv-3d beat (docs/models.md s.4.4): GMRES to 1e-8 in 80-150 iterations
+        // against 290-760 with the diagonal. On Taylor-Hood (P2-P1) its iterations grow faster and
+        // its wider stencil costs more (Land problem 2 tangent, K = 1 / 2 / 3: 42 / 69 / 97
+        // iterations against 51 / 69 / 76, 0.79 / 1.11 / 1.41x the time), so kAuto keeps the
+        // diagonal there.
+        const Eigen::VectorXd dinv = Ag.diagonal().cwiseAbs().cwiseInverse();
+        Sh = RowMatrix(B * dinv.asDiagonal() * m.Bt) - C;
+      }
+      // Either matrix is applied by BoomerAMG V-cycles on it (one function per vertex). A row
+      // without a positive diagonal (a pressure without volume coupling: empty rows of B and C)
+      // gets W_i (1 for an empty row), so that the V-cycle's smoother has a diagonal to invert.
       for (Eigen::Index i = 0; i < np; ++i)
         if (!(Sh.coeff(i, i) > 0)) Sh.coeffRef(i, i) = W[i];
       Sh.makeCompressed();  // BoomerAmg reads the compressed row pointers
