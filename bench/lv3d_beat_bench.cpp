@@ -218,13 +218,16 @@ void BM_Lv3dBeatLinearBySizeAmg(benchmark::State& st) {
 // SIMPLE's diagonal Schur approximation or 3 the same with the coarse correction of the wall modes
 // (coarse_correction; docs/models.md s.4.8, "The coarse correction in the beat"), 4 GMRES + BoomerAMG
 // with the grad-div term (grad_div 1) and the mass Schur approximation (docs/models.md s.4.8,
-// "The grad-div term in the beat"), k:
+// "The grad-div term in the beat") or 5 the same with an exact displacement solve instead of the
+// V-cycle (exact_displacement_solve, a diagnostic: docs/models.md s.4.8, "Where the beat's
+// iterations grow"), k:
 // linear_tolerance 10^-k, 100 alpha).
 void BM_Lv3dBeatLinearStabilized(benchmark::State& st) {
   LeftVentricle3DOptions o = linear_mesh(st);
   o.linear_solver = kSolvers[std::min<int64_t>(st.range(4), 2)];
   o.coarse_correction = st.range(4) == 3;
-  o.grad_div = st.range(4) == 4 ? 1.0 : 0.0;
+  o.grad_div = st.range(4) >= 4 ? 1.0 : 0.0;
+  o.exact_displacement_solve = st.range(4) == 5;
   o.linear_tolerance = std::pow(10.0, -static_cast<double>(st.range(5)));
   o.pressure_stabilization = 0.01 * static_cast<double>(st.range(6));
   beat(st, o, static_cast<int>(st.range(3)));
@@ -298,6 +301,7 @@ BENCHMARK(BM_Lv3dBeatLinearStabilized)
     ->ArgsProduct({{2}, {12}, {24}, {1}, {1, 2, 3, 4}, {10, 2}, {0, 10, 30}})
     ->ArgsProduct({{3}, {18}, {36}, {1}, {1, 2, 3, 4}, {10, 2}, {0, 10}})
     ->ArgsProduct({{4}, {24}, {48}, {1}, {1, 2, 3, 4}, {2}, {10}})
+    ->Args({2, 12, 24, 1, 5, 2, 10})->Args({3, 18, 36, 1, 5, 2, 10})->Args({4, 24, 48, 1, 5, 2, 10})
     ->ArgsProduct({{5}, {30}, {60}, {1}, {1, 2, 3, 4}, {2}, {10}})
     ->Args({6, 36, 72, 1, 2, 2, 10})
     ->Args({6, 36, 72, 1, 3, 2, 10})

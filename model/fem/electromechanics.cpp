@@ -112,6 +112,8 @@ std::string LeftVentricle3DOptions::validate() const {
   }
   if (coarse_correction && linear_solver != LinearSolver::kAmg)
     return "coarse_correction needs linear_solver amg (the direct solvers have no preconditioner to correct)";
+  if (exact_displacement_solve && linear_solver != LinearSolver::kAmg)
+    return "exact_displacement_solve needs linear_solver amg (it replaces the V-cycle of its preconditioner)";
   if (!(conduction_velocity > 0.01 && conduction_velocity < 100)) {
     s << "conduction_velocity = " << conduction_velocity << " m/s must lie in (0.01, 100) m/s";
     return s.str();
@@ -560,6 +562,7 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
   if (!lu) {
     IterativeOptions io = iterative_options_for(mc.options());
     io.relative_tolerance = options.linear_tolerance;
+    if (options.exact_displacement_solve) io.displacement = IterativeOptions::Displacement::kExact;
     lu = std::make_unique<SparseSolver>(options.linear_solver, io);
     lu->set_saddle_point(static_cast<int>(nu_));
     if (options.coarse_correction)

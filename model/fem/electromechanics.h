@@ -156,6 +156,13 @@ struct LeftVentricle3DOptions {
   // more and the beat gains 6-12 % up to 23 060 unknowns, nothing at 43 224 (docs/models.md s.4.8,
   // "The coarse correction in the beat").
   bool coarse_correction = false;
+  // A diagnostic of the iterative solver (needs linear_solver kAmg): the displacement block solved
+  // exactly (a sparse LU per set-up) instead of by a V-cycle (IterativeOptions::Displacement::kExact),
+  // so that GMRES's iterations measure the Schur complement approximation alone (docs/models.md
+  // s.4.8, "Where the beat's iterations grow"). Slow on large meshes; off by default. With UMFPACK
+  // (when built in) its runs on different thread counts may differ in the last bits, as
+  // linear_solver umfpack's do (electromechanics.cpp, step).
+  bool exact_displacement_solve = false;
 
   // Empty when valid, else a message starting with the offending field's name.
   std::string validate() const;

@@ -25,7 +25,8 @@ LeftVentricle3DOptions read_lv3d_options(const OptionReader& node) {
                    "inflation_steps", "min_beats", "max_beats", "periodic_tolerance", "output_every",
                    "newton_tolerance", "newton_max_iterations", "activation", "conduction_velocity",
                    "linear_solver", "linear_tolerance", "geometry", "active_stress", "element_order",
-                   "bulk_modulus", "pressure_stabilization", "grad_div", "coarse_correction"});
+                   "bulk_modulus", "pressure_stabilization", "grad_div", "coarse_correction",
+                   "exact_displacement_solve"});
   if (node.has("geometry")) {
     // The truncated ellipsoid's radii and base plane (EllipsoidGeometry, docs/models.md s.4.1);
     // keys left out keep the human-sized values.
@@ -85,6 +86,7 @@ LeftVentricle3DOptions read_lv3d_options(const OptionReader& node) {
   }
   o.linear_tolerance = node.number("linear_tolerance", o.linear_tolerance);
   o.coarse_correction = node.boolean("coarse_correction", o.coarse_correction);
+  o.exact_displacement_solve = node.boolean("exact_displacement_solve", o.exact_displacement_solve);
   if (const std::string msg = o.validate(); !msg.empty()) {
     // Messages start with the field name; map it to its key.
     std::string field = msg.substr(0, msg.find_first_of(" ="));

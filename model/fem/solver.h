@@ -52,6 +52,15 @@ struct IterativeOptions {
   // same GMRES iterations on the unloaded tangent and 20-30 % more in the beat, each cheaper
   // (docs/models.md s.4.8, "Cost"); iterative_options_for() sets it there.
   int aggressive_levels = 0;
+  // The displacement block's solve inside the block preconditioner: kVCycle (default) one BoomerAMG
+  // V-cycle on it; kExact a sparse LU of it (UMFPACK when built in, else SparseLU), refactorised at
+  // every set-up. kExact is a diagnostic: GMRES's iterations then depend on the Schur complement
+  // approximation alone (the block-triangular preconditioned saddle point has the eigenvalues of
+  // Shat^-1 S besides ones; Elman, Silvester & Wathen 2014, s.9.2), so it tells the approximation's
+  // growth with the mesh from the V-cycle's (docs/models.md s.4.8, "Where the beat's iterations
+  // grow"). It costs a factorisation per set-up and triangular solves per iteration.
+  enum class Displacement { kVCycle, kExact };
+  Displacement displacement = Displacement::kVCycle;
   std::string validate() const;       // empty when valid
 };
 
@@ -62,7 +71,7 @@ struct IterativeStats {
   long long iterations = 0;          // GMRES iterations over all solves
   int last_iterations = 0;           // of the last solve
   double last_relative_residual = 0; // scaled residual / scaled rhs of the last solve
-  int amg_levels = 0;                // of the last set-up
+  int amg_levels = 0;                // of the last set-up (0 with an exact displacement solve)
   int coarse_size = 0;               // coarse unknowns of the last set-up (0: no coarse correction)
   double setup_seconds = 0, solve_seconds = 0;
 };
@@ -104,7 +113,8 @@ class SparseSolver {
   // reach the tolerance within max_iterations (callers treat a non-finite update as a failure).
   Eigen::VectorXd solve(const Eigen::VectorXd& b);
   // Nonzeros of the L and U factors of the last factorisation (memory indicator); for kAmg the
-  // nonzeros of the operators of all AMG levels.
+  // nonzeros of the operators of all AMG levels (with Displacement::kExact, the nonzeros of the
+  // displacement block's factors).
   long long factor_nonzeros();
   LinearSolver kind() const { return kind_; }
   const IterativeStats& iterative_stats() const { return stats_; }

@@ -97,6 +97,9 @@ TEST(Lv3dRegistration, BadNumericsAreReportedAtTheirKey) {
             "coarse_correction: simulator.numerics: coarse_correction needs linear_solver amg (the direct solvers have "
             "no preconditioner to correct)");
   EXPECT_EQ(error_of({{"coarse_correction", "yes"}}), "coarse_correction: expected true or false");
+  EXPECT_EQ(error_of({{"exact_displacement_solve", "true"}}),
+            "exact_displacement_solve: simulator.numerics: exact_displacement_solve needs linear_solver amg (it "
+            "replaces the V-cycle of its preconditioner)");
   EXPECT_EQ(error_of({{"grad_div", "-1"}}), "grad_div: simulator.numerics: grad_div must be finite and >= 0");
   EXPECT_EQ(read_lv3d_options(MapOptions({{"linear_solver", "sparselu"}, {"grad_div", "1"}})).grad_div, 1.0);
   EXPECT_EQ(error_of({{"element_order", "3"}}),
