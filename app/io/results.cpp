@@ -15,7 +15,9 @@
 namespace sigmaheart::app::io {
 
 std::string version() { return SIGMAHEART_VERSION; }
-std::string git_describe() { return SIGMAHEART_GIT_DESCRIBE; }
+// Defined in the build directory's git_describe.cpp (cmake/git_describe.cmake), at every build.
+extern const char* const kGitDescribe;
+std::string git_describe() { return kGitDescribe; }
 
 std::string utc_now() {
   const std::time_t now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
