@@ -340,13 +340,10 @@ struct SparseSolver::Impl {
   Eigen::VectorXd row_scale;  // 1 / max_j |K_ij|: the residual norm of GMRES is on S (b - K x)
   std::unique_ptr<BoomerAmg> amg;
   // The displacement block's exact solve (IterativeOptions::Displacement::kExact) instead of `amg`:
-  // its factors, mutable because UMFPACK's solve uses the object's workspaces.
-  bool exact = false;
-#ifdef SIGMAHEART_FEM_HAVE_UMFPACK
-  mutable Umfpack exact_umf;
-#else
-  Eigen::SparseLU<SparseMatrixInt, Eigen::COLAMDOrdering<int>> exact_lu;
-#endif
+  // a direct solver of this class (UMFPACK when built in, else SparseLU; its pattern analysed once).
+  // Kept across set-ups; exact_ok says whether it holds the factors of the last set-up's block.
+  std::unique_ptr<SparseSolver> exact;
+  bool exact_ok = false;
   std::unique_ptr<BoomerAmg> amg_schur;  // on the sparse Schur approximation (Schur::kSparse, kMass)
   SparseMatrixInt schur_mass;            // M_w of Schur::kMass (set_schur_mass)
   // The coarse correction (set_coarse_space): P as given, and as used by the last set-up (without
@@ -401,35 +398,10 @@ struct SparseSolver::Impl {
 
   // z(0:n_u) = (the displacement block's preconditioner) ru: one V-cycle, or the exact solve.
   void displacement_solve(const Eigen::VectorXd& ru, Eigen::VectorXd& z) const {
-    if (!exact) {
+    if (exact_ok)
+      z.head(n_u) = exact->solve(ru);
+    else
       amg->apply(ru.data(), z.data());
-      return;
-    }
-#ifdef SIGMAHEART_FEM_HAVE_UMFPACK
-    z.head(n_u) = exact_umf.solve(ru);
-#else
-    z.head(n_u) = exact_lu.solve(ru);
-#endif
-  }
-
-  // Factorises the displacement block for the exact solve; false when it is singular.
-  bool factorize_exact(const RowMatrix& Ag) {
-    const SparseMatrixInt A = Ag;  // column-major, compressed
-#ifdef SIGMAHEART_FEM_HAVE_UMFPACK
-    exact = exact_umf.factorize(A);
-#else
-    exact_lu.compute(A);
-    exact = exact_lu.info() == Eigen::Success;
-#endif
-    return exact;
-  }
-
-  long long exact_factor_nonzeros() {
-#ifdef SIGMAHEART_FEM_HAVE_UMFPACK
-    return exact_umf.factor_nonzeros();
-#else
-    return static_cast<long long>(exact_lu.nnzL() + exact_lu.nnzU());
-#endif
   }
 #endif
 };
@@ -491,7 +463,7 @@ bool SparseSolver::factorize(const SparseMatrixInt& A) {
     const Eigen::Index n = A.rows(), nu = m.n_u, np = n - nu;
     m.amg.reset();
     m.amg_schur.reset();
-    m.exact = false;
+    m.exact_ok = false;
     m.K = A;
     const RowMatrix Auu = A.topLeftCorner(nu, nu);
     m.Bt = A.topRightCorner(nu, np);
@@ -630,11 +602,12 @@ bool SparseSolver::factorize(const SparseMatrixInt& A) {
       if (m.coarse) stats_.coarse_size = nc;
     }
     if (iterative_.displacement == IterativeOptions::Displacement::kExact) {
-      const bool factored = m.factorize_exact(Ag);
+      if (!m.exact) m.exact = std::make_unique<SparseSolver>(LinearSolver::kAuto);
+      m.exact_ok = m.exact->factorize(SparseMatrixInt(Ag));
       ++stats_.setups;
       stats_.setup_seconds += seconds_since(t0);
       stats_.amg_levels = 0;
-      return factored;
+      return m.exact_ok;
     }
     m.amg = std::make_unique<BoomerAmg>(Ag, iterative_.strong_threshold, 3, 1, iterative_.aggressive_levels);
     ++stats_.setups;
@@ -663,7 +636,7 @@ Eigen::VectorXd SparseSolver::solve(const Eigen::VectorXd& b) {
   if (kind_ == LinearSolver::kAmg) {
     const Impl& m = *impl_;
     const Eigen::Index n = b.size();
-    if (!(m.amg || m.exact) || n != m.K.rows()) return Eigen::VectorXd::Constant(n, std::numeric_limits<double>::quiet_NaN());
+    if (!(m.amg || m.exact_ok) || n != m.K.rows()) return Eigen::VectorXd::Constant(n, std::numeric_limits<double>::quiet_NaN());
     const auto t0 = Clock::now();
     // Restarted GMRES with right preconditioning (Saad 2003, Iterative Methods for Sparse Linear
     // Systems, 2nd ed., alg. 9.5) on the row-scaled system S K x = S b (S = row_scale): the
@@ -749,7 +722,7 @@ Eigen::VectorXd SparseSolver::solve(const Eigen::VectorXd& b) {
 long long SparseSolver::factor_nonzeros() {
 #ifdef SIGMAHEART_FEM_HAVE_HYPRE
   if (kind_ == LinearSolver::kAmg) {
-    if (impl_->exact) return impl_->exact_factor_nonzeros();
+    if (impl_->exact_ok) return impl_->exact->factor_nonzeros();
     return impl_->amg ? impl_->amg->operator_nonzeros() : 0;
   }
 #endif

@@ -16,6 +16,7 @@
 #include <omp.h>
 
 #include <cstdio>
+#include <functional>
 #include <map>
 #include <string>
 #include <vector>
@@ -257,6 +258,33 @@ TEST(SparseSolver, StabilisedLinearTetrahedraNeedIterationsIndependentOfTheMesh)
   EXPECT_LT(3 * stabilised[2], plain[1]);
 }
 
+// GMRES iterations to 1e-8 on the unloaded stabilised linear Land tangents of K = 1, 2, 3 with the
+// grad-div term (beta 1: `with`) and without it (beta 0: `without`), with the options of
+// iterative_options_for() changed by `adjust` (which may also check them); every solution within
+// 1e-5 of the direct one. `label` names the case in the printed counts.
+struct GradDivCounts {
+  int with[3] = {0, 0, 0}, without[3] = {0, 0, 0};
+};
+GradDivCounts grad_div_counts(const char* label,
+                              const std::function<void(IterativeOptions&, const Mechanics&, double beta)>& adjust) {
+  GradDivCounts c;
+  for (int refinement : {1, 2, 3}) {
+    for (const double beta : {1.0, 0.0}) {
+      auto mech = linear_land_mechanics(refinement, 0.1, beta);
+      const NewtonSystem sys(*mech, true);
+      IterativeOptions io = iterative_options_for(mech->options());
+      adjust(io, *mech, beta);
+      const Eigen::SparseMatrix<double, Eigen::ColMajor, int> Mw = mech->schur_mass();
+      double error = 0.0;
+      (beta > 0 ? c.with : c.without)[refinement - 1] = gmres_to_1e8(sys, io, direct_solution(sys), &error, nullptr, &Mw);
+      EXPECT_LT(error, 1e-5) << label << ", K = " << refinement << ", beta " << beta;
+    }
+    std::printf("%s, K = %d: GMRES iterations to 1e-8 with the grad-div term (mass Schur) %d, without (SIMPLE) %d\n",
+                label, refinement, c.with[refinement - 1], c.without[refinement - 1]);
+  }
+  return c;
+}
+
 // The grad-div term (MechanicsOptions::grad_div) gives the isochoric law's displacement block the
 // dilatational stiffness it lacks, and the true Schur complement becomes spectrally the pressure
 // mass over the stiffness: with that matrix as the Schur approximation (kMass, iterative_options_for's
@@ -268,26 +296,16 @@ TEST(SparseSolver, StabilisedLinearTetrahedraNeedIterationsIndependentOfTheMesh)
 // docs/models.md s.4.4, "Grad-div term"). A mass matrix of the wrong size is refused.
 TEST(SparseSolver, GradDivTermMakesTheMassSchurApproximationHoldOnFinerMeshes) {
   if (!linear_solver_available(LinearSolver::kAmg)) GTEST_SKIP() << "built without hypre";
-  int with[3] = {0, 0, 0}, without[3] = {0, 0, 0};
-  for (int refinement : {1, 2, 3}) {
-    for (const double beta : {1.0, 0.0}) {
-      auto mech = linear_land_mechanics(refinement, 0.1, beta);
-      const NewtonSystem sys(*mech, true);
-      const Eigen::VectorXd direct = direct_solution(sys);
-      IterativeOptions io = iterative_options_for(mech->options());
-      EXPECT_EQ(io.schur, beta > 0 ? IterativeOptions::Schur::kMass : IterativeOptions::Schur::kDiagonal);
-      EXPECT_EQ(io.schur_cycles, beta > 0 ? 1 : 2);
-      io.aggressive_levels = 0;
-      const Eigen::SparseMatrix<double, Eigen::ColMajor, int> Mw = mech->schur_mass();
-      EXPECT_EQ(Mw.rows(), mech->mesh().n_vertices);
-      EXPECT_EQ(Mw.nonZeros() > 0, beta > 0);
-      double error = 0.0;
-      (beta > 0 ? with : without)[refinement - 1] = gmres_to_1e8(sys, io, direct, &error, nullptr, &Mw);
-      EXPECT_LT(error, 1e-5) << "K = " << refinement << ", beta " << beta;
-    }
-    std::printf("K = %d: GMRES iterations to 1e-8 with the grad-div term (mass Schur) %d, without (SIMPLE) %d\n",
-                refinement, with[refinement - 1], without[refinement - 1]);
-  }
+  const GradDivCounts c = grad_div_counts("V-cycle", [](IterativeOptions& io, const Mechanics& mech, double beta) {
+    EXPECT_EQ(io.schur, beta > 0 ? IterativeOptions::Schur::kMass : IterativeOptions::Schur::kDiagonal);
+    EXPECT_EQ(io.schur_cycles, beta > 0 ? 1 : 2);
+    io.aggressive_levels = 0;
+    const Eigen::SparseMatrix<double, Eigen::ColMajor, int> Mw = mech.schur_mass();
+    EXPECT_EQ(Mw.rows(), mech.mesh().n_vertices);
+    EXPECT_EQ(Mw.nonZeros() > 0, beta > 0);
+  });
+  const int(&with)[3] = c.with;
+  const int(&without)[3] = c.without;
   // Measured (2026-11-28): with 20 / 23 / 25, without 35 / 45 / 56. The exact-solve model of the
   // spectrum (docs/models.md s.4.4) puts the rest of the growth with the term in the V-cycle.
   EXPECT_LT(with[2], 1.4 * with[0]);
@@ -314,22 +332,11 @@ TEST(SparseSolver, GradDivTermMakesTheMassSchurApproximationHoldOnFinerMeshes) {
 // above is the V-cycle's (docs/models.md s.4.8, "Where the beat's iterations grow").
 TEST(SparseSolver, ExactDisplacementSolveShowsTheMassSchurApproximationIsMeshIndependent) {
   if (!linear_solver_available(LinearSolver::kAmg)) GTEST_SKIP() << "built without hypre";
-  int with[3] = {0, 0, 0}, without[3] = {0, 0, 0};
-  for (int refinement : {1, 2, 3}) {
-    for (const double beta : {1.0, 0.0}) {
-      auto mech = linear_land_mechanics(refinement, 0.1, beta);
-      const NewtonSystem sys(*mech, true);
-      IterativeOptions io = iterative_options_for(mech->options());
-      io.displacement = IterativeOptions::Displacement::kExact;
-      const Eigen::SparseMatrix<double, Eigen::ColMajor, int> Mw = mech->schur_mass();
-      double error = 0.0;
-      (beta > 0 ? with : without)[refinement - 1] = gmres_to_1e8(sys, io, direct_solution(sys), &error, nullptr, &Mw);
-      EXPECT_LT(error, 1e-5) << "K = " << refinement << ", beta " << beta;
-    }
-    std::printf("K = %d, exact displacement solve, GMRES iterations to 1e-8: grad-div + mass Schur %d, SIMPLE "
-                "without the term %d\n",
-                refinement, with[refinement - 1], without[refinement - 1]);
-  }
+  const GradDivCounts c = grad_div_counts("exact displacement solve", [](IterativeOptions& io, const Mechanics&, double) {
+    io.displacement = IterativeOptions::Displacement::kExact;
+  });
+  const int(&with)[3] = c.with;
+  const int(&without)[3] = c.without;
   // Measured (2026-11-28): with 15 / 18 / 19, without 26 / 39 / 58.
   EXPECT_LT(with[2], 1.4 * with[0]);
   EXPECT_GT(without[2], 1.4 * without[0]);
