@@ -46,6 +46,13 @@
 // ^1.36 overall, of which ~0.3 the GMRES iterations per beat (docs/models.md s.4.8, "Where the
 // iterations grow"). docs/models.md s.4.8, "Cost".
 //   build/bench/lv3d_beat_bench --benchmark_filter='LinearStabilized/.*/1/(1/10|2/2)/10/'
+// With the grad-div term and the coarse correction on a grid that follows the mesh (solver 6;
+// 1 thread, idle, 2026-11-28 17:30-17:55 UTC), 3 468 / 10 384 / 23 060 / 43 224 / 72 604 unknowns:
+// 11.9 / 57.0 / 158 / 364 / 661 s, 4.77 / 4.71 / 4.93 / 5.10 / 5.42 GMRES iterations per Newton
+// iteration, 75 / 85 / 91 / 98 / 101 set-ups; growth unknowns^1.26 from the fine mesh to
+// (6, 36, 72), ^1.15 between the two largest (docs/models.md s.4.8, "The coarse correction with
+// the grad-div term").
+//   build/bench/lv3d_beat_bench --benchmark_filter='LinearStabilized/.*/1/6/2/10/'
 // Earlier the same day (before the carried factors): the fine mesh took 84.9 s on the
 // machine of 2026-11-27 (AMD EPYC, 2.45 GHz, idle), where the code before that day's Newton changes
 // (pattern-only UMFPACK analysis, w1 frozen with the factors, residual-only stress, Broyden
@@ -220,12 +227,13 @@ void BM_Lv3dBeatLinearBySizeAmg(benchmark::State& st) {
 // with the grad-div term (grad_div 1) and the mass Schur approximation (docs/models.md s.4.8,
 // "The grad-div term in the beat") or 5 the same with an exact displacement solve instead of the
 // V-cycle (exact_displacement_solve, a diagnostic: docs/models.md s.4.8, "Where the beat's
-// iterations grow"), k:
-// linear_tolerance 10^-k, 100 alpha).
+// iterations grow") or 6 the grad-div term with the coarse correction on a grid that follows the
+// mesh (coarse_correction; docs/models.md s.4.8, "The coarse correction with the grad-div term"),
+// k: linear_tolerance 10^-k, 100 alpha).
 void BM_Lv3dBeatLinearStabilized(benchmark::State& st) {
   LeftVentricle3DOptions o = linear_mesh(st);
   o.linear_solver = kSolvers[std::min<int64_t>(st.range(4), 2)];
-  o.coarse_correction = st.range(4) == 3;
+  o.coarse_correction = st.range(4) == 3 || st.range(4) == 6;
   o.grad_div = st.range(4) >= 4 ? 1.0 : 0.0;
   o.exact_displacement_solve = st.range(4) == 5;
   o.linear_tolerance = std::pow(10.0, -static_cast<double>(st.range(5)));
@@ -306,6 +314,9 @@ BENCHMARK(BM_Lv3dBeatLinearStabilized)
     ->Args({6, 36, 72, 1, 2, 2, 10})
     ->Args({6, 36, 72, 1, 3, 2, 10})
     ->Args({6, 36, 72, 1, 4, 2, 10})
+    ->ArgsProduct({{2}, {12}, {24}, {1, 2}, {6}, {2}, {10}})->ArgsProduct({{3}, {18}, {36}, {1, 2}, {6}, {2}, {10}})
+    ->ArgsProduct({{4}, {24}, {48}, {1, 2}, {6}, {2}, {10}})
+    ->Args({5, 30, 60, 1, 6, 2, 10})->Args({6, 36, 72, 1, 6, 2, 10})
     ->Unit(benchmark::kSecond)
     ->Iterations(1)
     ->UseRealTime();

@@ -16,12 +16,19 @@ std::string EllipsoidCoarseOptions::validate() const {
   return {};
 }
 
-EllipsoidCoarseOptions ellipsoid_coarse_options(int n_transmural, int n_longitudinal, int n_circumferential) {
+EllipsoidCoarseOptions ellipsoid_coarse_options(int n_transmural, int n_longitudinal, int n_circumferential,
+                                                CoarseGrid grid) {
   EllipsoidCoarseOptions o;
   // The mesh has n + 1 node layers transmurally and meridionally (apex to base), n around.
   o.transmural = std::clamp(n_transmural + 1, 1, 3);
-  o.meridian = std::clamp(n_longitudinal / 2 + 1, 2, 5);
-  o.around = std::clamp(n_circumferential / 2, 3, 8);
+  if (grid == CoarseGrid::kHalfMesh) {
+    o.meridian = std::max(n_longitudinal / 2 + 1, 2);
+    o.around = std::max(n_circumferential / 2, 3);
+    o.pressure = false;
+  } else {
+    o.meridian = std::clamp(n_longitudinal / 2 + 1, 2, 5);
+    o.around = std::clamp(n_circumferential / 2, 3, 8);
+  }
   return o;
 }
 
@@ -53,7 +60,8 @@ Eigen::SparseMatrix<double, Eigen::ColMajor, int> ellipsoid_coarse_space(const M
   const int n_scalar = o.transmural * per_layer;
   const int nn = mesh.n_nodes(), nv = mesh.n_vertices;
   const Eigen::Index n = 3 * static_cast<Eigen::Index>(nn) + nv + trailing;
-  const Eigen::Index nc = 4 * static_cast<Eigen::Index>(n_scalar) + trailing;
+  const int per_hat = o.pressure ? 4 : 3;  // columns per scalar hat
+  const Eigen::Index nc = per_hat * static_cast<Eigen::Index>(n_scalar) + trailing;
   std::vector<Eigen::Triplet<double, int>> trip;
   trip.reserve(static_cast<size_t>(16 * nn + 8 * nv + trailing));
   const double dv = 2 * std::numbers::pi / o.around;
@@ -78,8 +86,8 @@ Eigen::SparseMatrix<double, Eigen::ColMajor, int> ellipsoid_coarse_space(const M
           const double val = hs[b].first == 0 ? wab : wab * hv[c2].second;
           if (val == 0.0) continue;
           const int col = hs[b].first == 0 ? base : base + 1 + (hs[b].first - 1) * o.around + hv[c2].first;
-          for (int d = 0; d < 3; ++d) trip.emplace_back(3 * node + d, 4 * col + d, val);
-          if (node < nv) trip.emplace_back(3 * nn + node, 4 * col + 3, val);
+          for (int d = 0; d < 3; ++d) trip.emplace_back(3 * node + d, per_hat * col + d, val);
+          if (o.pressure && node < nv) trip.emplace_back(3 * nn + node, per_hat * col + 3, val);
         }
       }
   }

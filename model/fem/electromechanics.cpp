@@ -568,7 +568,8 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
     if (options.coarse_correction)
       lu->set_coarse_space(ellipsoid_coarse_space(
           g.mesh, options.geometry,
-          ellipsoid_coarse_options(options.n_transmural, options.n_longitudinal, options.n_circumferential)));
+          ellipsoid_coarse_options(options.n_transmural, options.n_longitudinal, options.n_circumferential,
+                                   options.grad_div > 0 ? CoarseGrid::kHalfMesh : CoarseGrid::kWallModes)));
   }
   SparseSolver& solver = *lu;
   bool factors_fresh = false;  // the factors belong to the current point

@@ -150,11 +150,14 @@ struct LeftVentricle3DOptions {
   // convergence, so a looser linear tolerance costs iterations, not accuracy
   // (docs/models.md s.4.8, "Cost").
   double linear_tolerance = 1e-10;
-  // Coarse correction of the iterative solver (needs linear_solver kAmg): the thin wall's smooth
-  // shell modes on hats in the ellipsoid's coordinates (coarse_space.h; docs/models.md s.4.4).
-  // Off by default: it halves the GMRES iterations and set-ups of a beat, but each iteration costs
-  // more and the beat gains 6-12 % up to 23 060 unknowns, nothing at 43 224 (docs/models.md s.4.8,
-  // "The coarse correction in the beat").
+  // Coarse correction of the iterative solver (needs linear_solver kAmg): hats in the ellipsoid's
+  // coordinates (coarse_space.h; docs/models.md s.4.4, "Coarse correction"). With grad_div > 0 the
+  // grid follows the mesh (every other node along and around the wall; displacements only,
+  // CoarseGrid::kHalfMesh): GMRES then takes 4.7-5.4 iterations per Newton iteration from 3 468
+  // to 72 604 unknowns, and the beat grows as unknowns^1.26 from 10 384 to 72 604 (^1.36 without;
+  // docs/models.md s.4.8, "The coarse correction with the grad-div term"). Without the term, the fixed 3 x 5 x 8
+  // grid of the wall's shell modes (CoarseGrid::kWallModes), which gains 6-12 % up to 23 060
+  // unknowns and nothing at 43 224 (s.4.8, "The coarse correction in the beat"). Off by default.
   bool coarse_correction = false;
   // A diagnostic of the iterative solver (needs linear_solver kAmg): the displacement block solved
   // exactly (a sparse LU per set-up) instead of by a V-cycle (IterativeOptions::Displacement::kExact),

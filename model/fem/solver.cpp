@@ -352,12 +352,14 @@ struct SparseSolver::Impl {
   SparseMatrixInt coarse_P;
   RowMatrix coarse_Pt;
   RowMatrix coarse_KP;  // K P: the coarse correction's residual r - K z_c = r - (K P) y without a product with K
-  // K_c's factors: dense. On an ellipsoid coarse space of 3 x 7 x 12 hats (876 unknowns) the
-  // sparse factors filled to 2/3 of the dense ones, and the dense triangular solves took 0.2 ms
-  // against 0.35 (SparseLU) and 0.6 (UMFPACK). Eigen's blocked LU may run its products on OpenMP
-  // threads, but it sizes their blocks for one thread (GeneralMatrixMatrix.h) and splits only the
-  // result among threads, so the factors are the same bits with any thread count (tested).
-  Eigen::PartialPivLU<Eigen::MatrixXd> coarse_lu;
+  // K_c's factors: sparse, by a direct solver of this class (SparseLU, whose factors are the same
+  // bits with any thread count; its pattern analysed once). Dense factors were faster on the
+  // fixed 3 x 5 x 8 wall-mode grid (876 unknowns: triangular solves 0.2 ms against 0.35), but a
+  // coarse grid that follows the mesh (coarse_space.h, CoarseGrid::kHalfMesh) has 1 467-5 841
+  // unknowns on the lv-3d meshes of 10 384-72 604 unknowns, where dense factors would cost
+  // 17-270 MB and O(n_c^3) per set-up.
+  std::unique_ptr<SparseSolver> coarse_lu;
+  Eigen::Index coarse_rows = 0, coarse_nonzeros = 0;  // K_c's pattern when coarse_lu analysed it
   bool coarse = false;
 
   // z = (the two-level preconditioner) r: with a coarse space, the coarse correction first and the
@@ -370,7 +372,7 @@ struct SparseSolver::Impl {
       block(r, z);
       return;
     }
-    const Eigen::VectorXd y = coarse_lu.solve(coarse_Pt * r);
+    const Eigen::VectorXd y = coarse_lu->solve(coarse_Pt * r);
     block(r - coarse_KP * y, z);
     z += coarse_P * y;
   }
@@ -428,9 +430,6 @@ SparseSolver::SparseSolver(LinearSolver kind, IterativeOptions iterative)
 SparseSolver::~SparseSolver() = default;
 
 void SparseSolver::set_coarse_space(SparseMatrixInt P) {
-  if (P.cols() > kMaxCoarseSize)
-    throw std::invalid_argument("set_coarse_space: " + std::to_string(P.cols()) + " coarse unknowns; at most " +
-                                std::to_string(kMaxCoarseSize) + " (K_c is factorised dense)");
 #ifdef SIGMAHEART_FEM_HAVE_HYPRE
   impl_->coarse_given = std::move(P);
 #else
@@ -594,11 +593,16 @@ bool SparseSolver::factorize(const SparseMatrixInt& A) {
       m.coarse_P.setFromTriplets(trip.begin(), trip.end());
       m.coarse_Pt = m.coarse_P.transpose();
       m.coarse_KP = m.K * m.coarse_P;
-      const Eigen::MatrixXd Kc = Eigen::MatrixXd(m.coarse_Pt * m.coarse_KP);
-      m.coarse_lu.compute(Kc);
       // A singular coarse matrix (dependent columns) leaves the block preconditioner alone.
-      const Eigen::VectorXd d = m.coarse_lu.matrixLU().diagonal();
-      m.coarse = nc > 0 && d.allFinite() && (d.array() != 0.0).all();
+      if (nc > 0) {
+        const SparseMatrixInt Kc(m.coarse_Pt * m.coarse_KP);
+        // The nested solver analyses its first pattern only: a new one (another P) gets a new solver.
+        if (!m.coarse_lu || Kc.rows() != m.coarse_rows || Kc.nonZeros() != m.coarse_nonzeros)
+          m.coarse_lu = std::make_unique<SparseSolver>(LinearSolver::kSparseLU);
+        m.coarse_rows = Kc.rows();
+        m.coarse_nonzeros = Kc.nonZeros();
+        m.coarse = m.coarse_lu->factorize(Kc);
+      }
       if (m.coarse) stats_.coarse_size = nc;
     }
     if (iterative_.displacement == IterativeOptions::Displacement::kExact) {

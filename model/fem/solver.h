@@ -96,8 +96,8 @@ class SparseSolver {
   // z = P K_c^-1 P^T r followed by z += M (r - K z) (solver.cpp). Rows of P at the matrix's
   // Dirichlet unknowns (identity rows) are ignored, and so are its empty columns. An empty P (the
   // default) removes the correction. factorize() fails when P's row count is not the matrix's.
-  // K_c is factorised dense: std::invalid_argument above kMaxCoarseSize columns.
-  static constexpr int kMaxCoarseSize = 4000;
+  // K_c is factorised sparse (SparseLU: the same bits with any thread count), so the coarse space
+  // may grow with the mesh (docs/models.md s.4.4, "Coarse correction").
   void set_coarse_space(Eigen::SparseMatrix<double, Eigen::ColMajor, int> P);
 
   // The weighted pressure mass M_w (n_p x n_p, symmetric positive semi-definite) of the Schur
