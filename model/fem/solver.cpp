@@ -71,6 +71,28 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
+// The pattern a direct solver analysed (compressed column storage): both direct paths analyse a
+// pattern once and again only when the matrix's pattern differs from it.
+class AnalysedPattern {
+ public:
+  bool matches(const SparseMatrixInt& A) const {
+    return !ap_.empty() && ap_.size() == static_cast<size_t>(A.cols() + 1) &&
+           ai_.size() == static_cast<size_t>(A.nonZeros()) && std::equal(ap_.begin(), ap_.end(), A.outerIndexPtr()) &&
+           std::equal(ai_.begin(), ai_.end(), A.innerIndexPtr());
+  }
+  void store(const SparseMatrixInt& A) {
+    ap_.assign(A.outerIndexPtr(), A.outerIndexPtr() + A.cols() + 1);
+    ai_.assign(A.innerIndexPtr(), A.innerIndexPtr() + A.nonZeros());
+  }
+  void clear() { ap_.clear(), ai_.clear(); }
+  int* outer() { return ap_.data(); }
+  int* inner() { return ai_.data(); }
+  size_t columns() const { return ap_.empty() ? 0 : ap_.size() - 1; }
+
+ private:
+  std::vector<int> ap_, ai_;
+};
+
 #ifdef SIGMAHEART_FEM_HAVE_UMFPACK
 // UMFPACK (Davis 2004, ACM Trans. Math. Softw. 30:196) through its C interface. The symbolic
 // analysis (fill-reducing ordering, frontal structure) is given the pattern only (Ax = NULL: every
@@ -108,19 +130,20 @@ class Umfpack {
     }
     const int n = static_cast<int>(A.rows());
     if (numeric_) umfpack_di_free_numeric(&numeric_);
-    if (!same_pattern(A)) {
+    if (!symbolic_ || !pattern_.matches(A)) {
       if (symbolic_) umfpack_di_free_symbolic(&symbolic_);
-      ap_.assign(A.outerIndexPtr(), A.outerIndexPtr() + n + 1);
-      ai_.assign(A.innerIndexPtr(), A.innerIndexPtr() + A.nonZeros());
-      if (umfpack_di_symbolic(n, n, ap_.data(), ai_.data(), nullptr, &symbolic_, control_, info_) != UMFPACK_OK) {
+      pattern_.store(A);
+      if (umfpack_di_symbolic(n, n, pattern_.outer(), pattern_.inner(), nullptr, &symbolic_, control_, info_) !=
+          UMFPACK_OK) {
         symbolic_ = nullptr;
-        ap_.clear();
+        pattern_.clear();
         return false;
       }
       wi_.resize(static_cast<size_t>(n));
       w_.resize(static_cast<size_t>(n));
     }
-    const int st = umfpack_di_numeric(ap_.data(), ai_.data(), A.valuePtr(), symbolic_, &numeric_, control_, info_);
+    const int st =
+        umfpack_di_numeric(pattern_.outer(), pattern_.inner(), A.valuePtr(), symbolic_, &numeric_, control_, info_);
     if (st != UMFPACK_OK) {  // includes UMFPACK_WARNING_singular_matrix
       if (numeric_) umfpack_di_free_numeric(&numeric_);
       numeric_ = nullptr;
@@ -132,7 +155,7 @@ class Umfpack {
   // Without iterative refinement (IRSTEP 0) the solve reads the factors only, not A (umfpack_solve.h).
   Eigen::VectorXd solve(const Eigen::VectorXd& b) {
     Eigen::VectorXd x(b.size());
-    if (!numeric_ || b.size() + 1 != static_cast<Eigen::Index>(ap_.size()) ||
+    if (!numeric_ || static_cast<size_t>(b.size()) != pattern_.columns() ||
         umfpack_di_wsolve(UMFPACK_A, nullptr, nullptr, nullptr, x.data(), b.data(), numeric_, control_, info_,
                           wi_.data(), w_.data()) != UMFPACK_OK)
       x.setConstant(std::numeric_limits<double>::quiet_NaN());
@@ -147,17 +170,11 @@ class Umfpack {
   }
 
  private:
-  bool same_pattern(const SparseMatrixInt& A) const {
-    if (!symbolic_ || ap_.size() != static_cast<size_t>(A.rows() + 1) || ai_.size() != static_cast<size_t>(A.nonZeros()))
-      return false;
-    return std::equal(ap_.begin(), ap_.end(), A.outerIndexPtr()) && std::equal(ai_.begin(), ai_.end(), A.innerIndexPtr());
-  }
-
   double control_[UMFPACK_CONTROL];
   double info_[UMFPACK_INFO];
   void* symbolic_ = nullptr;
   void* numeric_ = nullptr;
-  std::vector<int> ap_, ai_;  // the analysed pattern
+  AnalysedPattern pattern_;
   std::vector<int> wi_;       // wsolve workspaces: no allocation per solve
   std::vector<double> w_;
 };
@@ -320,7 +337,7 @@ class BoomerAmg {
 }  // namespace
 
 struct SparseSolver::Impl {
-  bool analysed = false;
+  AnalysedPattern analysed;  // SparseLU's
   Eigen::SparseLU<SparseMatrixInt, Eigen::COLAMDOrdering<int>> lu;
 #ifdef SIGMAHEART_FEM_HAVE_UMFPACK
   Umfpack umf;
@@ -340,7 +357,7 @@ struct SparseSolver::Impl {
   Eigen::VectorXd row_scale;  // 1 / max_j |K_ij|: the residual norm of GMRES is on S (b - K x)
   std::unique_ptr<BoomerAmg> amg;
   // The displacement block's exact solve (IterativeOptions::Displacement::kExact) instead of `amg`:
-  // a direct solver of this class (UMFPACK when built in, else SparseLU; its pattern analysed once).
+  // a direct solver of this class (UMFPACK when built in, else SparseLU; a pattern analysed once).
   // Kept across set-ups; exact_ok says whether it holds the factors of the last set-up's block.
   std::unique_ptr<SparseSolver> exact;
   bool exact_ok = false;
@@ -353,13 +370,12 @@ struct SparseSolver::Impl {
   RowMatrix coarse_Pt;
   RowMatrix coarse_KP;  // K P: the coarse correction's residual r - K z_c = r - (K P) y without a product with K
   // K_c's factors: sparse, by a direct solver of this class (SparseLU, whose factors are the same
-  // bits with any thread count; its pattern analysed once). Dense factors were faster on the
-  // fixed 3 x 5 x 8 wall-mode grid (876 unknowns: triangular solves 0.2 ms against 0.35), but a
-  // coarse grid that follows the mesh (coarse_space.h, CoarseGrid::kHalfMesh) has 1 467-5 841
-  // unknowns on the lv-3d meshes of 10 384-72 604 unknowns, where dense factors would cost
-  // 17-270 MB and O(n_c^3) per set-up.
+  // bits with any thread count; a pattern is analysed once, again only when it changes). Dense
+  // factors were faster on the fixed 3 x 5 x 8 wall-mode grid (876 unknowns: triangular solves
+  // 0.2 ms against 0.35), but a coarse grid that follows the mesh (coarse_space.h,
+  // CoarseGrid::kHalfMesh) has 1 467-5 841 unknowns on the lv-3d meshes of 10 384-72 604
+  // unknowns, where dense factors would cost 17-270 MB and O(n_c^3) per set-up.
   std::unique_ptr<SparseSolver> coarse_lu;
-  Eigen::Index coarse_rows = 0, coarse_nonzeros = 0;  // K_c's pattern when coarse_lu analysed it
   bool coarse = false;
 
   // z = (the two-level preconditioner) r: with a coarse space, the coarse correction first and the
@@ -595,13 +611,8 @@ bool SparseSolver::factorize(const SparseMatrixInt& A) {
       m.coarse_KP = m.K * m.coarse_P;
       // A singular coarse matrix (dependent columns) leaves the block preconditioner alone.
       if (nc > 0) {
-        const SparseMatrixInt Kc(m.coarse_Pt * m.coarse_KP);
-        // The nested solver analyses its first pattern only: a new one (another P) gets a new solver.
-        if (!m.coarse_lu || Kc.rows() != m.coarse_rows || Kc.nonZeros() != m.coarse_nonzeros)
-          m.coarse_lu = std::make_unique<SparseSolver>(LinearSolver::kSparseLU);
-        m.coarse_rows = Kc.rows();
-        m.coarse_nonzeros = Kc.nonZeros();
-        m.coarse = m.coarse_lu->factorize(Kc);
+        if (!m.coarse_lu) m.coarse_lu = std::make_unique<SparseSolver>(LinearSolver::kSparseLU);
+        m.coarse = m.coarse_lu->factorize(SparseMatrixInt(m.coarse_Pt * m.coarse_KP));
       }
       if (m.coarse) stats_.coarse_size = nc;
     }
@@ -627,9 +638,10 @@ bool SparseSolver::factorize(const SparseMatrixInt& A) {
 #ifdef SIGMAHEART_FEM_HAVE_UMFPACK
   if (kind_ == LinearSolver::kUmfPack) return impl_->umf.factorize(A);
 #endif
-  if (!impl_->analysed) {
+  if (!A.isCompressed()) return factorize(SparseMatrixInt(A));  // the copy comes out compressed
+  if (!impl_->analysed.matches(A)) {
     impl_->lu.analyzePattern(A);
-    impl_->analysed = true;
+    impl_->analysed.store(A);
   }
   impl_->lu.factorize(A);
   return impl_->lu.info() == Eigen::Success;
