@@ -316,7 +316,7 @@ BENCHMARK(BM_Lv3dBeatLinearStabilized)
     ->Args({6, 36, 72, 1, 4, 2, 10})
     ->ArgsProduct({{2}, {12}, {24}, {1, 2}, {6}, {2}, {10}})->ArgsProduct({{3}, {18}, {36}, {1, 2}, {6}, {2}, {10}})
     ->ArgsProduct({{4}, {24}, {48}, {1, 2}, {6}, {2}, {10}})
-    ->Args({5, 30, 60, 1, 6, 2, 10})->Args({6, 36, 72, 1, 6, 2, 10})
+    ->Args({5, 30, 60, 1, 6, 2, 10})->Args({6, 36, 72, 1, 6, 2, 10})->Args({7, 42, 84, 1, 6, 2, 10})
     ->Unit(benchmark::kSecond)
     ->Iterations(1)
     ->UseRealTime();

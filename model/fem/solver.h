@@ -73,6 +73,7 @@ struct IterativeStats {
   double last_relative_residual = 0; // scaled residual / scaled rhs of the last solve
   int amg_levels = 0;                // of the last set-up (0 with an exact displacement solve)
   int coarse_size = 0;               // coarse unknowns of the last set-up (0: no coarse correction)
+  bool coarse_symmetric = false;     // K_c of the last set-up factorised as symmetric positive definite (LDL^T)
   double setup_seconds = 0, solve_seconds = 0;
 };
 

@@ -87,10 +87,12 @@ Eigen::VectorXd direct_solution(const NewtonSystem& sys) {
 }
 
 // With `coarse`, the two-level preconditioner on that coarse space; with `schur_mass`, the M_w of
-// the mass Schur approximation (IterativeOptions::Schur::kMass).
+// the mass Schur approximation (IterativeOptions::Schur::kMass); `coarse_symmetric` receives
+// whether K_c was factorised as symmetric positive definite.
 int gmres_to_1e8(const NewtonSystem& sys, IterativeOptions io, const Eigen::VectorXd& direct, double* error,
                  const Eigen::SparseMatrix<double, Eigen::ColMajor, int>* coarse = nullptr,
-                 const Eigen::SparseMatrix<double, Eigen::ColMajor, int>* schur_mass = nullptr) {
+                 const Eigen::SparseMatrix<double, Eigen::ColMajor, int>* schur_mass = nullptr,
+                 bool* coarse_symmetric = nullptr) {
   io.relative_tolerance = 1e-8;
   io.max_iterations = 5000;
   SparseSolver amg(LinearSolver::kAmg, io);
@@ -100,6 +102,7 @@ int gmres_to_1e8(const NewtonSystem& sys, IterativeOptions io, const Eigen::Vect
   EXPECT_TRUE(amg.factorize(sys.K));
   const Eigen::VectorXd x = amg.solve(-sys.R);
   *error = x.allFinite() ? relative_difference(x, direct) : 1.0;
+  if (coarse_symmetric) *coarse_symmetric = amg.iterative_stats().coarse_symmetric;
   return amg.iterative_stats().last_iterations;
 }
 
@@ -403,6 +406,61 @@ TEST(SparseSolver, HalfMeshCoarseCorrectionMakesTheVCycleAsGoodAsAnExactDisplace
   EXPECT_GT(plain[2], 1.5 * exact[2]);
 }
 
+// K_c's factors follow its symmetry and definiteness (solver.cpp, CoarseFactors). The half-mesh
+// grid's K_c of the loaded Land tangent at K = 1 is symmetric positive definite: LDL^T. With the
+// displacement block's upper triangle scaled by 1 + 1e-10, K_c is nonsymmetric beyond rounding and
+// goes to SparseLU: the same preconditioner to 1e-10, so the same GMRES iterations and accuracy.
+// At K = 2 the displacement block is still symmetric but the loaded K_c is indefinite (the
+// pressure's p d2J/du2 under load; a negative LDL^T pivot): SparseLU again, as accurate.
+TEST(SparseSolver, CoarseFactorsAreLdltOnlyForASymmetricPositiveDefiniteCoarseMatrix) {
+  if (!linear_solver_available(LinearSolver::kAmg)) GTEST_SKIP() << "built without hypre";
+  auto coarse_grid = [](const Mechanics& mech, int k) {
+    return ellipsoid_coarse_space(mech.mesh(), EllipsoidGeometry{}, ellipsoid_coarse_options(k, 6 * k, 12 * k, CoarseGrid::kHalfMesh));
+  };
+  auto displacement_asymmetry = [](const Mechanics& mech, const NewtonSystem& sys) {
+    double largest = 0.0, asymmetry = 0.0;
+    const SparseMatrix Kt = sys.K.transpose();
+    for (Eigen::Index c = 0; c < sys.nu; ++c)
+      for (SparseMatrix::InnerIterator it(sys.K, c); it; ++it)
+        if (it.row() < sys.nu && !mech.is_fixed(static_cast<int>(it.row())) && !mech.is_fixed(static_cast<int>(c))) {
+          largest = std::max(largest, std::abs(it.value()));
+          asymmetry = std::max(asymmetry, std::abs(it.value() - Kt.coeff(it.row(), c)));
+        }
+    return asymmetry / largest;
+  };
+  auto mech = linear_land_mechanics(1, 0.1, 1.0);
+  NewtonSystem sys(*mech);
+  const IterativeOptions io = iterative_options_for(mech->options());
+  const Eigen::SparseMatrix<double, Eigen::ColMajor, int> Mw = mech->schur_mass();
+  const Eigen::SparseMatrix<double, Eigen::ColMajor, int> P = coarse_grid(*mech, 1);
+  EXPECT_LT(displacement_asymmetry(*mech, sys), 1e-14);
+  double error = 1.0;
+  bool symmetric = false;
+  const int ldlt_iterations = gmres_to_1e8(sys, io, direct_solution(sys), &error, &P, &Mw, &symmetric);
+  EXPECT_TRUE(symmetric);
+  EXPECT_LT(error, 1e-5);
+  for (Eigen::Index c = 0; c < sys.nu; ++c)
+    for (SparseMatrix::InnerIterator it(sys.K, c); it; ++it)
+      if (it.row() < c && !mech->is_fixed(static_cast<int>(it.row())) && !mech->is_fixed(static_cast<int>(c)))
+        it.valueRef() *= 1.0 + 1e-10;
+  EXPECT_GT(displacement_asymmetry(*mech, sys), 1e-11);
+  symmetric = true;
+  const int lu_iterations = gmres_to_1e8(sys, io, direct_solution(sys), &error, &P, &Mw, &symmetric);
+  EXPECT_FALSE(symmetric);
+  EXPECT_LT(error, 1e-5);
+  EXPECT_EQ(lu_iterations, ldlt_iterations);
+
+  auto mech2 = linear_land_mechanics(2, 0.1, 1.0);
+  const NewtonSystem sys2(*mech2);
+  const Eigen::SparseMatrix<double, Eigen::ColMajor, int> Mw2 = mech2->schur_mass();
+  const Eigen::SparseMatrix<double, Eigen::ColMajor, int> P2 = coarse_grid(*mech2, 2);
+  EXPECT_LT(displacement_asymmetry(*mech2, sys2), 1e-14);
+  symmetric = true;
+  gmres_to_1e8(sys2, iterative_options_for(mech2->options()), direct_solution(sys2), &error, &P2, &Mw2, &symmetric);
+  EXPECT_FALSE(symmetric);
+  EXPECT_LT(error, 1e-5);
+}
+
 // The ellipsoid's coarse space (coarse_space.h): its hats are a partition of unity on every field,
 // each displacement column moves one component and each pressure column only pressures, every
 // column carries nodes, and the trailing unknowns are their own coarse unknowns; on a quadratic
@@ -568,8 +626,10 @@ TEST(SparseSolver, CoarseCorrectionOfTheWallModesCutsTheIterations) {
   EXPECT_LT(error, 1e-5);
   const Eigen::SparseMatrix<double, Eigen::ColMajor, int> P =
       ellipsoid_coarse_space(mech->mesh(), EllipsoidGeometry{}, ellipsoid_coarse_options(3, 18, 36));
-  const int corrected = gmres_to_1e8(sys, io, direct, &error, &P);
+  bool symmetric = true;
+  const int corrected = gmres_to_1e8(sys, io, direct, &error, &P, nullptr, &symmetric);
   EXPECT_LT(error, 1e-5);
+  EXPECT_FALSE(symmetric) << "the pressure columns make K_c indefinite: SparseLU, not LDL^T";
   std::printf("K = 3: GMRES iterations to 1e-8 without / with the coarse correction %d / %d\n", plain, corrected);
   EXPECT_LT(corrected, 0.7 * plain);
 }
