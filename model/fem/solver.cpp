@@ -342,9 +342,9 @@ class BoomerAmg {
 // factorisation 0.33 s against 0.71 s, a solve 4.7 ms against 8.7 ms. Any other K_c goes to
 // SparseLU: nonsymmetric (a tangent without a potential), or indefinite (the wall-mode grid's
 // pressure columns; a displacement block under load, as Land's problem 2 at K = 2 and 3, where
-// LDL^T without pivoting meets a negative pivot and is not used). Both are
-// sequential, so the factors are the same bits with any thread count; each analyses a pattern once
-// and again only when it changes.
+// LDL^T without pivoting meets a negative pivot and is not used). Both are sequential, so the
+// factors are the same bits with any thread count; each analyses a pattern once and again only
+// when it changes.
 class CoarseFactors {
  public:
   // False when K_c is singular (neither factorisation succeeded).
