@@ -252,6 +252,12 @@ std::filesystem::path study_output(const StudyOptions& o, const std::string& kin
   return !o.output.empty() ? o.output : default_output_path(o.config, kind);
 }
 
+std::filesystem::path result_path(const std::filesystem::path& file, bool succeeded, std::string* note) {
+  if (succeeded || file.empty() || !std::filesystem::exists(file)) return file;
+  if (note) *note += "; the earlier result " + file.string() + " was kept";
+  return file.parent_path() / (file.stem().string() + ".failed" + file.extension().string());
+}
+
 int set_up_study_ensemble(const StudyOptions& o, const CommandContext& ctx, estimation::EnsembleOptions& ensemble) {
   if (o.threads > 0) ensemble.threads = o.threads;
   ensemble.communicator = ctx.comm;  // members spread over the ranks, if several

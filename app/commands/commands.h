@@ -115,6 +115,11 @@ void check_outputs(const std::vector<std::pair<std::string, std::filesystem::pat
 // The results file of an estimation command: o.output, else default_output_path(o.config, kind).
 std::filesystem::path study_output(const StudyOptions& o, const std::string& kind);
 
+// Where a run writes the result `file`: `file` itself, or <stem>.failed<ext> beside it when the run
+// did not succeed and `file` exists already, so that a failed run never replaces an earlier
+// result; then "; the earlier result <file> was kept" is appended to *note (if given).
+std::filesystem::path result_path(const std::filesystem::path& file, bool succeeded, std::string* note);
+
 // What every estimation command does around its estimator (docs/architecture.md s.5, "Checkpoint
 // and resume", and s.6): made after the config is loaded, before any forward run.
 //  - The outputs are checked against the data files the config names (an output may not be one).

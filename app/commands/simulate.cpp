@@ -47,7 +47,7 @@ std::vector<io::Indicator> simulate_indicators(const model::RunResult& result,
   }
   out.push_back({"period", result.info.period, "s", "heart period"});
   out.push_back({"beats", static_cast<double>(result.info.beats), "1",
-                 "beats integrated until the beat was periodic"});
+                 "beats integrated: until the beat was periodic, or all allowed (status not-periodic)"});
   out.push_back({"periodicity_change", result.info.periodicity_change, "1",
                  "last Newton correction of the periodic beat-start state, relative to each entry's scale"});
   return out;
@@ -136,22 +136,38 @@ int run_simulate(const SimulateOptions& o, CommandContext& ctx) {
     throw InputError(Location{config.file.file(), 0, 0},
                      "the simulator rejects this config: " + result.status.message);
   }
-  if (!result.status.ok()) {
-    throw RunFailure("simulation of '" + config.name + "' failed (" +
-                     model::to_string(result.status.code) + "): " + result.status.message);
-  }
-  spdlog::info("periodic after {} beats (change {:.2e}), {} Newton iterations, {} step cuts{}",
-               result.info.beats, result.info.periodicity_change, result.info.newton_iterations,
-               result.info.step_cuts,
+  // A run that did not settle to a periodic beat still integrated whole beats: its last beat is
+  // written, marked "not-periodic", and the command exits 1 (docs/architecture.md s.7); as for the
+  // estimation commands, a file that exists already is kept and this run's goes to
+  // <stem>.failed<ext> beside it (result_path). Any other failure has no beat to show: nothing is
+  // written and an earlier result at -o stays.
+  const bool not_periodic = code == model::StatusCode::kNotPeriodic && result.trajectory.values.rows() > 1 &&
+                            result.trajectory.values.allFinite();
+  const std::string failure = result.status.ok() ? std::string()
+                                                 : "simulation of '" + config.name + "' failed (" +
+                                                       model::to_string(code) + "): " + result.status.message;
+  if (!result.status.ok() && !not_periodic) throw RunFailure(failure);
+  spdlog::info("{} after {} beats (change {:.2e}), {} Newton iterations, {} step cuts{}",
+               not_periodic ? "not periodic" : "periodic", result.info.beats, result.info.periodicity_change,
+               result.info.newton_iterations, result.info.step_cuts,
                result.info.linear_iterations > 0
                    ? fmt::format(", {} GMRES iterations", result.info.linear_iterations)
                    : std::string());
   const auto indicators = simulate_indicators(result, simulator->channels());
+  const std::string status = model::to_string(code);
+  std::string kept;
+  const std::filesystem::path h5_path = result_path(output, !not_periodic, &kept);
+  const std::filesystem::path csv_path = result_path(o.csv, !not_periodic, &kept);
+  const std::filesystem::path summary_path = result_path(o.summary, !not_periodic, &kept);
+  // The ParaView directory counts as an earlier result when it holds this config's .pvd.
+  const std::filesystem::path vtu = o.vtu.has_filename() ? o.vtu : o.vtu.parent_path();
+  const std::filesystem::path vtu_dir =
+      !vtu.empty() && std::filesystem::exists(vtu / (config.name + ".pvd")) ? result_path(vtu, !not_periodic, &kept) : vtu;
 
   fill_provenance(prov, config, ctx, "simulate", omp_get_max_threads(), 1);
 
   {
-    io::Hdf5Writer h5(output);
+    io::Hdf5Writer h5(h5_path);
     io::write_parameters(h5, "/parameters", config.simulator.parameters, theta);
     std::vector<std::string> sources;
     for (auto s : config.simulator.sources) sources.emplace_back(to_string(s));
@@ -159,28 +175,31 @@ int run_simulate(const SimulateOptions& o, CommandContext& ctx) {
     io::write_trajectory(h5, "/trajectories/simulated", result.trajectory);
     h5.set_attribute("/trajectories/simulated", "model", simulator->name());
     h5.set_attribute("/trajectories/simulated", "description",
-                     "the last (periodic) beat, time from its start");
+                     not_periodic ? "the last beat, not periodic (see /summary status), time from its start"
+                                  : "the last (periodic) beat, time from its start");
     io::write_indicators(h5, "/summary", indicators);
-    h5.set_attribute("/summary", "status", model::to_string(result.status.code));
+    h5.set_attribute("/summary", "status", status);
+    if (not_periodic) h5.set_attribute("/summary", "message", result.status.message);
     h5.set_attribute("/summary", "newton_iterations", result.info.newton_iterations);
     h5.set_attribute("/summary", "step_cuts", result.info.step_cuts);
     prov.end_utc = io::utc_now();
     io::write_provenance(h5, prov);
     h5.commit();
   }
-  if (!o.csv.empty()) io::write_trajectory_csv(o.csv, result.trajectory);
-  if (!o.summary.empty()) io::write_indicators_json(o.summary, indicators, &prov);
+  if (!csv_path.empty()) io::write_trajectory_csv(csv_path, result.trajectory);
+  if (!summary_path.empty()) io::write_indicators_json(summary_path, indicators, &prov, status);
   std::filesystem::path pvd;
-  if (rec.keep_states) pvd = write_beat_vtu(simulator.get(), rec, o.vtu, config.name);
+  if (rec.keep_states) pvd = write_beat_vtu(simulator.get(), rec, vtu_dir, config.name);
 
-  ctx.out << config.name << " (" << simulator->name() << "): periodic after " << result.info.beats
-          << " beats\n"
+  ctx.out << config.name << " (" << simulator->name() << "): " << (not_periodic ? "NOT periodic" : "periodic")
+          << " after " << result.info.beats << " beats\n"
           << io::format_indicators(indicators);
-  ctx.out << "wrote " << output.string() << "\n";
-  if (!o.csv.empty()) ctx.out << "wrote " << o.csv.string() << "\n";
-  if (!o.summary.empty()) ctx.out << "wrote " << o.summary.string() << "\n";
+  ctx.out << "wrote " << h5_path.string() << "\n";
+  if (!csv_path.empty()) ctx.out << "wrote " << csv_path.string() << "\n";
+  if (!summary_path.empty()) ctx.out << "wrote " << summary_path.string() << "\n";
   if (!pvd.empty())
     ctx.out << "wrote " << rec.states.size() << " ParaView steps of the last beat, " << pvd.string() << "\n";
+  if (not_periodic) throw RunFailure(failure + "; the last beat is written to " + h5_path.string() + kept);
   return kExitOk;
 }
 

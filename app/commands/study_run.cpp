@@ -71,10 +71,7 @@ void StudyRun::attach(estimation::EnsembleOptions& ensemble, const std::string& 
 }
 
 std::filesystem::path StudyRun::aside(const std::filesystem::path& file, bool succeeded) {
-  if (succeeded || file.empty() || !std::filesystem::exists(file)) return file;
-  std::filesystem::path moved = file.parent_path() / (file.stem().string() + ".failed" + file.extension().string());
-  kept_note_ += "; the earlier result " + file.string() + " was kept";
-  return moved;
+  return result_path(file, succeeded, &kept_note_);
 }
 
 std::filesystem::path StudyRun::output(bool succeeded) { return aside(output_, succeeded); }

@@ -151,8 +151,10 @@ void write_indicators(Hdf5Writer& out, const std::string& group,
 }
 
 void write_indicators_json(const std::filesystem::path& path,
-                           const std::vector<Indicator>& indicators, const Provenance* provenance) {
+                           const std::vector<Indicator>& indicators, const Provenance* provenance,
+                           const std::string& status) {
   nlohmann::ordered_json j = nlohmann::ordered_json::object();
+  if (!status.empty()) j["status"] = status;
   for (const auto& i : indicators) {
     // JSON has no NaN: a value that could not be computed is null.
     j[i.name] = {{"value", std::isfinite(i.value) ? nlohmann::ordered_json(i.value) : nullptr},

@@ -80,11 +80,12 @@ struct Indicator {
 // Attributes "<name>" (value) and "<name>.units" on `group` (created if missing).
 void write_indicators(Hdf5Writer& out, const std::string& group,
                       const std::vector<Indicator>& indicators);
-// {"EDV": {"value": 142.1, "unit": "mL"}, ..., "provenance": {...}} (the key only when
-// `provenance` is given), written atomically.
+// {"status": "not-periodic", "EDV": {"value": 142.1, "unit": "mL"}, ..., "provenance": {...}}
+// ("status" only when `status` is not empty, "provenance" only when `provenance` is given),
+// written atomically.
 void write_indicators_json(const std::filesystem::path& path,
                            const std::vector<Indicator>& indicators,
-                           const Provenance* provenance = nullptr);
+                           const Provenance* provenance = nullptr, const std::string& status = {});
 // An aligned table "name  value unit  doc" for the terminal.
 std::string format_indicators(const std::vector<Indicator>& indicators);
 

@@ -157,7 +157,9 @@ struct LeftVentricle3DOptions {
   // to 72 604 unknowns, and the beat grows as unknowns^1.26 from 10 384 to 72 604 (^1.36 without;
   // docs/models.md s.4.8, "The coarse correction with the grad-div term"). Without the term, the fixed 3 x 5 x 8
   // grid of the wall's shell modes (CoarseGrid::kWallModes), which gains 6-12 % up to 23 060
-  // unknowns and nothing at 43 224 (s.4.8, "The coarse correction in the beat"). Off by default.
+  // unknowns and nothing at 43 224 (s.4.8, "The coarse correction in the beat"). Off by default
+  // here; a config that leaves the key out gets it on with linear_solver amg, grad_div > 0 and
+  // element_order 1 (read_lv3d_options, register.h).
   bool coarse_correction = false;
   // A diagnostic of the iterative solver (needs linear_solver kAmg): the displacement block solved
   // exactly (a sparse LU per set-up) instead of by a V-cycle (IterativeOptions::Displacement::kExact),

@@ -65,6 +65,7 @@ TEST(Cli, SimulateWritesResultsCsvAndJsonAndExitsZero) {
   EXPECT_EQ(f.string_attribute("/summary", "EF.units"), "%");
 
   const auto j = nlohmann::json::parse(read_file(dir / "r.json"));
+  EXPECT_EQ(j["status"], "ok");
   EXPECT_NEAR(j["ESV"]["value"].get<double>(), 75.0, 1e-6);
   EXPECT_EQ(j["ESV"]["unit"], "mL");
   EXPECT_NEAR(j["P_max"]["value"].get<double>(), 16000.0 / 133.322, 1e-6);
@@ -125,6 +126,36 @@ TEST(Cli, FailedSimulationExitsOneAndWritesNothing) {
   EXPECT_EQ(read_file(h5), "previous result");
 }
 
+// A run that ends without a periodic beat still integrated its beats: the last one is written with
+// status "not-periodic" (exit 1), beside an earlier result, which stays.
+TEST(Cli, NotPeriodicSimulationExitsOneAndWritesItsLastBeatBesideTheEarlierResult) {
+  const auto dir = scratch_dir();
+  const auto config = write_file(dir / "standin.yaml", kStandIn);
+  const auto h5 = write_file(dir / "r.h5", "previous result");
+  const auto json = dir / "s.json";
+  const CliRun r = cli({"--log-level", "off", "simulate", config.string(), "-o", h5.string(), "--summary",
+                        json.string(), "--set", "fail=0.85"});
+  EXPECT_EQ(r.code, kExitRuntimeFailure);
+  EXPECT_EQ(r.err, "error: simulation of 'standin' failed (not-periodic): not periodic after 3 beats: beat-to-beat "
+                   "change 0.02 > periodic_tolerance 0.001; the last beat is written to " +
+                       (dir / "r.failed.h5").string() + "; the earlier result " + h5.string() + " was kept\n");
+  EXPECT_EQ(read_file(h5), "previous result");
+  EXPECT_EQ(temporaries_in(dir), 0);
+  io::Hdf5Reader f((dir / "r.failed.h5").string());
+  EXPECT_EQ(f.string_attribute("/summary", "status"), "not-periodic");
+  const Eigen::VectorXd v = f.read_vector("/trajectories/simulated/V_lv");
+  ASSERT_EQ(v.size(), 41);
+  EXPECT_NEAR(v(0), 150.0, 1e-9);  // mL, the beat as computed
+  const auto j = nlohmann::json::parse(read_file(json));
+  EXPECT_EQ(j["status"], "not-periodic");
+  EXPECT_NEAR(j["periodicity_change"]["value"].get<double>(), 0.02, 1e-12);
+  // No earlier result: the files go where asked.
+  const auto fresh = dir / "fresh.h5";
+  EXPECT_EQ(cli({"--log-level", "off", "simulate", config.string(), "-o", fresh.string(), "--set", "fail=0.85"}).code,
+            kExitRuntimeFailure);
+  EXPECT_EQ(io::Hdf5Reader(fresh.string()).string_attribute("/summary", "status"), "not-periodic");
+}
+
 TEST(Cli, ValidateReportsOkAndParamsListsUnitsBoundsAndSources) {
   const auto dir = scratch_dir();
   const auto config = write_file(dir / "standin.yaml", kStandIn);
@@ -141,7 +172,7 @@ TEST(Cli, ValidateReportsOkAndParamsListsUnitsBoundsAndSources) {
             "V_ed    m^3   0.00015  1e-05  0.0005  config   end-diastolic volume\n"
             "EF      1         0.6   0.05     0.9  default  ejection fraction\n"
             "P_peak  Pa    1.6e+04   1000   4e+04  default  peak LV pressure\n"
-            "fail    1           0      0       1  default  > 0.5 makes the run fail\n");
+            "fail    1           0      0       1  default  > 0.5 makes the run fail ((0.8, 0.86): not periodic)\n");
 }
 
 TEST(Cli, UnknownOptionOrMissingConfigExitsTwo) {

@@ -53,7 +53,8 @@ inline std::string read_file(const std::filesystem::path& path) {
 
 // One beat of period 0.8 s: a cosine volume curve and a pressure pulse. Parameters: V_ed [m^3]
 // (end-diastolic volume), EF [1] (ejection fraction), P_peak [Pa] and `fail` [1] (> 0.5: the run
-// reports kDiverged). Channels V_lv [m^3], P_lv [Pa], phase [1].
+// reports kDiverged without a trajectory, except in (0.8, 0.86): kNotPeriodic with its last beat).
+// Channels V_lv [m^3], P_lv [Pa], phase [1].
 class BeatStandIn final : public model::Simulator {
  public:
   explicit BeatStandIn(model::ParameterSpace p, int samples) : params_(std::move(p)), samples_(samples) {}
@@ -63,7 +64,7 @@ class BeatStandIn final : public model::Simulator {
         {"V_ed", "m^3", 1.4e-4, 1e-5, 5e-4, "end-diastolic volume"},
         {"EF", "1", 0.6, 0.05, 0.9, "ejection fraction"},
         {"P_peak", "Pa", 16000.0, 1000.0, 40000.0, "peak LV pressure"},
-        {"fail", "1", 0.0, 0.0, 1.0, "> 0.5 makes the run fail"},
+        {"fail", "1", 0.0, 0.0, 1.0, "> 0.5 makes the run fail ((0.8, 0.86): not periodic)"},
     });
   }
 
@@ -74,7 +75,8 @@ class BeatStandIn final : public model::Simulator {
   }
   model::RunResult run(const Eigen::Ref<const Eigen::VectorXd>& theta) override {
     model::RunResult r;
-    if (theta(3) > 0.5) {
+    const bool not_periodic = theta(3) > 0.8 && theta(3) < 0.86;
+    if (theta(3) > 0.5 && !not_periodic) {
       r.status = model::Status::Error(model::StatusCode::kDiverged, "Newton diverged at t = 0.3 s");
       return r;
     }
@@ -92,6 +94,11 @@ class BeatStandIn final : public model::Simulator {
     r.info.beats = 3;
     r.info.period = period;
     r.info.periodicity_change = 1e-4;
+    if (not_periodic) {
+      r.info.periodicity_change = 0.02;
+      r.status = model::Status::Error(model::StatusCode::kNotPeriodic,
+                                      "not periodic after 3 beats: beat-to-beat change 0.02 > periodic_tolerance 0.001");
+    }
     return r;
   }
   std::unique_ptr<model::Simulator> clone() const override {

@@ -97,6 +97,23 @@ TEST(Lv3dRegistration, BadNumericsAreReportedAtTheirKey) {
             "coarse_correction: simulator.numerics: coarse_correction needs linear_solver amg (the direct solvers have "
             "no preconditioner to correct)");
   EXPECT_EQ(error_of({{"coarse_correction", "yes"}}), "coarse_correction: expected true or false");
+  if (linear_solver_available(LinearSolver::kAmg)) {
+    // The coarse correction defaults to on for the scalable set-up only (amg, grad-div, linear).
+    const std::map<std::string, std::string> scalable = {
+        {"linear_solver", "amg"}, {"grad_div", "1"}, {"element_order", "1"}, {"bulk_modulus", "1e7"}};
+    EXPECT_TRUE(read_lv3d_options(MapOptions(scalable)).coarse_correction);
+    auto with = [&](const std::string& key, const std::string& value) {
+      std::map<std::string, std::string> m = scalable;
+      m[key] = value;
+      return read_lv3d_options(MapOptions(m)).coarse_correction;
+    };
+    EXPECT_FALSE(with("coarse_correction", "false"));
+    EXPECT_FALSE(with("grad_div", "0"));
+    EXPECT_FALSE(with("element_order", "2"));
+    EXPECT_TRUE(read_lv3d_options(MapOptions({{"linear_solver", "amg"}, {"coarse_correction", "true"}})).coarse_correction);
+    EXPECT_FALSE(read_lv3d_options(MapOptions(std::map<std::string, std::string>{{"linear_solver", "amg"}})).coarse_correction);
+  }
+  EXPECT_FALSE(read_lv3d_options(MapOptions({{"linear_solver", "sparselu"}, {"grad_div", "1"}})).coarse_correction);
   EXPECT_EQ(error_of({{"exact_displacement_solve", "true"}}),
             "exact_displacement_solve: simulator.numerics: exact_displacement_solve needs linear_solver amg (it "
             "replaces the V-cycle of its preconditioner)");
