@@ -49,7 +49,8 @@ std::vector<io::Indicator> simulate_indicators(const model::RunResult& result,
   out.push_back({"beats", static_cast<double>(result.info.beats), "1",
                  "beats integrated: until the beat was periodic, or all allowed (status not-periodic)"});
   out.push_back({"periodicity_change", result.info.periodicity_change, "1",
-                 "last Newton correction of the periodic beat-start state, relative to each entry's scale"});
+                 "distance of the last beat's start state from periodic, relative to each entry's scale "
+                 "(the shooting's last Newton correction, or lv-3d's beat-to-beat change)"});
   return out;
 }
 
