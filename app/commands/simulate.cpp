@@ -160,10 +160,9 @@ int run_simulate(const SimulateOptions& o, CommandContext& ctx) {
   const std::filesystem::path h5_path = result_path(output, !not_periodic, &kept);
   const std::filesystem::path csv_path = result_path(o.csv, !not_periodic, &kept);
   const std::filesystem::path summary_path = result_path(o.summary, !not_periodic, &kept);
-  // The ParaView directory counts as an earlier result when it holds this config's .pvd.
-  const std::filesystem::path vtu = o.vtu.has_filename() ? o.vtu : o.vtu.parent_path();
-  const std::filesystem::path vtu_dir =
-      !vtu.empty() && std::filesystem::exists(vtu / (config.name + ".pvd")) ? result_path(vtu, !not_periodic, &kept) : vtu;
+  // The ParaView series is named after its .pvd: <name>.failed_NNNN.vtu beside an earlier <name>.pvd.
+  const std::string vtu_name =
+      rec.keep_states ? result_path(o.vtu / (config.name + ".pvd"), !not_periodic, &kept).stem().string() : config.name;
 
   fill_provenance(prov, config, ctx, "simulate", omp_get_max_threads(), 1);
 
@@ -190,7 +189,7 @@ int run_simulate(const SimulateOptions& o, CommandContext& ctx) {
   if (!csv_path.empty()) io::write_trajectory_csv(csv_path, result.trajectory);
   if (!summary_path.empty()) io::write_indicators_json(summary_path, indicators, &prov, status);
   std::filesystem::path pvd;
-  if (rec.keep_states) pvd = write_beat_vtu(simulator.get(), rec, vtu_dir, config.name);
+  if (rec.keep_states) pvd = write_beat_vtu(simulator.get(), rec, o.vtu, vtu_name);
 
   ctx.out << config.name << " (" << simulator->name() << "): " << (not_periodic ? "NOT periodic" : "periodic")
           << " after " << result.info.beats << " beats\n"
