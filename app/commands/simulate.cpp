@@ -11,6 +11,8 @@
 #include "model/fem/electromechanics.h"
 #endif
 
+#include <cmath>
+
 #include <omp.h>
 #include <spdlog/spdlog.h>
 
@@ -52,6 +54,22 @@ std::vector<io::Indicator> simulate_indicators(const model::RunResult& result,
                  "distance of the last beat's start state from periodic, relative to each entry's scale "
                  "(the shooting's last Newton correction, or lv-3d's beat-to-beat change)"});
   return out;
+}
+
+// A run that failed inside a beat (diverged, non-finite): no indices (a part of a beat has no EDV
+// or EF), only where it stopped.
+std::vector<io::Indicator> failed_beat_facts(const model::RunResult& result, const model::Trajectory& beat) {
+  return {{"period", result.info.period, "s", "heart period"},
+          {"beats", static_cast<double>(result.info.beats), "1", "beats begun; the last one failed"},
+          {"time_reached", beat.times(beat.samples() - 1), "s",
+           "time of the last sample written, from the start of the failing beat"}};
+}
+
+// The leading samples of a trajectory whose values are all finite.
+Eigen::Index finite_rows(const model::Trajectory& tr) {
+  Eigen::Index k = 0;
+  while (k < tr.values.rows() && k < tr.times.size() && tr.values.row(k).allFinite() && std::isfinite(tr.times(k))) ++k;
+  return k;
 }
 
 // The states of the last beat of a 3D run, for its ParaView time series, and progress lines per
@@ -137,32 +155,47 @@ int run_simulate(const SimulateOptions& o, CommandContext& ctx) {
     throw InputError(Location{config.file.file(), 0, 0},
                      "the simulator rejects this config: " + result.status.message);
   }
-  // A run that did not settle to a periodic beat still integrated whole beats: its last beat is
-  // written, marked "not-periodic", and the command exits 1 (docs/architecture.md s.7); as for the
-  // estimation commands, a file that exists already is kept and this run's goes to
-  // <stem>.failed<ext> beside it (result_path). Any other failure has no beat to show: nothing is
-  // written and an earlier result at -o stays.
-  const bool not_periodic = code == model::StatusCode::kNotPeriodic && result.trajectory.values.rows() > 1 &&
-                            result.trajectory.values.allFinite();
-  const std::string failure = result.status.ok() ? std::string()
-                                                 : "simulation of '" + config.name + "' failed (" +
-                                                       model::to_string(code) + "): " + result.status.message;
-  if (!result.status.ok() && !not_periodic) throw RunFailure(failure);
-  spdlog::info("{} after {} beats (change {:.2e}), {} Newton iterations, {} step cuts{}",
-               not_periodic ? "not periodic" : "periodic", result.info.beats, result.info.periodicity_change,
-               result.info.newton_iterations, result.info.step_cuts,
-               result.info.linear_iterations > 0
-                   ? fmt::format(", {} GMRES iterations", result.info.linear_iterations)
-                   : std::string());
-  const auto indicators = simulate_indicators(result, simulator->channels());
+  // A failed run still shows what it computed (docs/architecture.md s.7): a run that did not settle
+  // to a periodic beat its last whole beat, marked "not-periodic" with its indices; a run that
+  // diverged or went non-finite inside a beat that beat's finite samples up to the failure, with
+  // no indices. Either way the command exits 1, and as for the estimation commands a file that
+  // exists already is kept and this run's goes to <stem>.failed<ext> beside it (result_path). A
+  // failure without at least two finite samples has nothing to show: nothing is written and an
+  // earlier result at -o stays.
+  const Eigen::Index rows = result.trajectory.values.rows(), kept_rows = finite_rows(result.trajectory);
+  const bool not_periodic = code == model::StatusCode::kNotPeriodic && rows > 1 && kept_rows == rows;
+  const bool partial = !result.status.ok() && !not_periodic && kept_rows > 1;
+  const bool ok = result.status.ok();
+  const std::string failure = ok ? std::string()
+                                 : "simulation of '" + config.name + "' failed (" + model::to_string(code) +
+                                       "): " + result.status.message;
+  if (!ok && !not_periodic && !partial) throw RunFailure(failure);
+  model::Trajectory beat = result.trajectory;
+  if (partial) {
+    beat.times.conservativeResize(kept_rows);
+    beat.values.conservativeResize(kept_rows, Eigen::NoChange);
+    if (rec.states.size() > static_cast<size_t>(kept_rows)) rec.states.erase(rec.states.begin() + kept_rows, rec.states.end());
+  }
+  if (partial)
+    spdlog::info("failed in beat {} after {:.4f} s of it ({} samples kept), {} Newton iterations, {} step cuts",
+                 result.info.beats, beat.times(kept_rows - 1), kept_rows, result.info.newton_iterations,
+                 result.info.step_cuts);
+  else
+    spdlog::info("{} after {} beats (change {:.2e}), {} Newton iterations, {} step cuts{}",
+                 not_periodic ? "not periodic" : "periodic", result.info.beats, result.info.periodicity_change,
+                 result.info.newton_iterations, result.info.step_cuts,
+                 result.info.linear_iterations > 0
+                     ? fmt::format(", {} GMRES iterations", result.info.linear_iterations)
+                     : std::string());
+  const auto indicators = partial ? failed_beat_facts(result, beat) : simulate_indicators(result, simulator->channels());
   const std::string status = model::to_string(code);
   std::string kept;
-  const std::filesystem::path h5_path = result_path(output, !not_periodic, &kept);
-  const std::filesystem::path csv_path = result_path(o.csv, !not_periodic, &kept);
-  const std::filesystem::path summary_path = result_path(o.summary, !not_periodic, &kept);
+  const std::filesystem::path h5_path = result_path(output, ok, &kept);
+  const std::filesystem::path csv_path = result_path(o.csv, ok, &kept);
+  const std::filesystem::path summary_path = result_path(o.summary, ok, &kept);
   // The ParaView series is named after its .pvd: <name>.failed_NNNN.vtu beside an earlier <name>.pvd.
   const std::string vtu_name =
-      rec.keep_states ? result_path(o.vtu / (config.name + ".pvd"), !not_periodic, &kept).stem().string() : config.name;
+      rec.keep_states ? result_path(o.vtu / (config.name + ".pvd"), ok, &kept).stem().string() : config.name;
 
   fill_provenance(prov, config, ctx, "simulate", omp_get_max_threads(), 1);
 
@@ -172,34 +205,44 @@ int run_simulate(const SimulateOptions& o, CommandContext& ctx) {
     std::vector<std::string> sources;
     for (auto s : config.simulator.sources) sources.emplace_back(to_string(s));
     h5.write_strings("/parameters/source", sources);
-    io::write_trajectory(h5, "/trajectories/simulated", result.trajectory);
+    io::write_trajectory(h5, "/trajectories/simulated", beat);
     h5.set_attribute("/trajectories/simulated", "model", simulator->name());
     h5.set_attribute("/trajectories/simulated", "description",
-                     not_periodic ? "the last beat, not periodic (see /summary status), time from its start"
-                                  : "the last (periodic) beat, time from its start");
+                     partial        ? "the failing beat up to its last finite sample (see /summary status and "
+                                      "message), time from its start"
+                     : not_periodic ? "the last beat, not periodic (see /summary status), time from its start"
+                                    : "the last (periodic) beat, time from its start");
     io::write_indicators(h5, "/summary", indicators);
     h5.set_attribute("/summary", "status", status);
-    if (not_periodic) h5.set_attribute("/summary", "message", result.status.message);
+    if (!ok) h5.set_attribute("/summary", "message", result.status.message);
     h5.set_attribute("/summary", "newton_iterations", result.info.newton_iterations);
     h5.set_attribute("/summary", "step_cuts", result.info.step_cuts);
     prov.end_utc = io::utc_now();
     io::write_provenance(h5, prov);
     h5.commit();
   }
-  if (!csv_path.empty()) io::write_trajectory_csv(csv_path, result.trajectory);
+  if (!csv_path.empty()) io::write_trajectory_csv(csv_path, beat);
   if (!summary_path.empty()) io::write_indicators_json(summary_path, indicators, &prov, status);
   std::filesystem::path pvd;
   if (rec.keep_states) pvd = write_beat_vtu(simulator.get(), rec, o.vtu, vtu_name);
 
-  ctx.out << config.name << " (" << simulator->name() << "): " << (not_periodic ? "NOT periodic" : "periodic")
-          << " after " << result.info.beats << " beats\n"
-          << io::format_indicators(indicators);
+  if (partial)
+    ctx.out << config.name << " (" << simulator->name() << "): FAILED (" << status << ") in beat "
+            << result.info.beats << "\n";
+  else
+    ctx.out << config.name << " (" << simulator->name() << "): " << (not_periodic ? "NOT periodic" : "periodic")
+            << " after " << result.info.beats << " beats\n";
+  ctx.out << io::format_indicators(indicators);
   ctx.out << "wrote " << h5_path.string() << "\n";
   if (!csv_path.empty()) ctx.out << "wrote " << csv_path.string() << "\n";
   if (!summary_path.empty()) ctx.out << "wrote " << summary_path.string() << "\n";
   if (!pvd.empty())
-    ctx.out << "wrote " << rec.states.size() << " ParaView steps of the last beat, " << pvd.string() << "\n";
+    ctx.out << "wrote " << rec.states.size() << " ParaView steps of the " << (partial ? "failing" : "last")
+            << " beat, " << pvd.string() << "\n";
   if (not_periodic) throw RunFailure(failure + "; the last beat is written to " + h5_path.string() + kept);
+  if (partial)
+    throw RunFailure(failure + "; the beat up to t = " + fmt::format("{:.4g}", beat.times(kept_rows - 1)) +
+                     " s of beat " + std::to_string(result.info.beats) + " is written to " + h5_path.string() + kept);
   return kExitOk;
 }
 

@@ -12,6 +12,7 @@
 #include <sys/wait.h>
 
 #include <cstdlib>
+#include <fstream>
 #include <sstream>
 
 namespace sigmaheart::app {
@@ -115,6 +116,8 @@ TEST(Cli, OutOfBoundsSetExitsTwo) {
   EXPECT_EQ(r.err, "error: --set EF=2: parameter 'EF' = 2 1 is outside its bounds [0.05, 0.9] 1\n");
 }
 
+// A run that failed without two finite samples has nothing to show: nothing is written and an
+// earlier result stays.
 TEST(Cli, FailedSimulationExitsOneAndWritesNothing) {
   const auto dir = scratch_dir();
   const auto config = write_file(dir / "standin.yaml", kStandIn);
@@ -124,6 +127,42 @@ TEST(Cli, FailedSimulationExitsOneAndWritesNothing) {
   EXPECT_EQ(r.code, kExitRuntimeFailure);
   EXPECT_EQ(r.err, "error: simulation of 'standin' failed (diverged): Newton diverged at t = 0.3 s\n");
   EXPECT_EQ(read_file(h5), "previous result");
+}
+
+// A run that diverged inside a beat writes that beat's finite samples up to the failure, without
+// indices, with status "diverged" and its message (exit 1), beside an earlier result, which stays.
+TEST(Cli, DivergedSimulationExitsOneAndWritesTheBeatUpToTheFailure) {
+  const auto dir = scratch_dir();
+  const auto config = write_file(dir / "standin.yaml", kStandIn);
+  const auto h5 = write_file(dir / "r.h5", "previous result");
+  const auto json = dir / "s.json";
+  const auto csv = dir / "c.csv";
+  const CliRun r = cli({"--log-level", "off", "simulate", config.string(), "-o", h5.string(), "--summary",
+                        json.string(), "--csv", csv.string(), "--set", "fail=0.87"});
+  EXPECT_EQ(r.code, kExitRuntimeFailure);
+  EXPECT_EQ(r.err, "error: simulation of 'standin' failed (diverged): Newton diverged at t = 0.3 s; the beat up to "
+                   "t = 0.3 s of beat 3 is written to " +
+                       (dir / "r.failed.h5").string() + "; the earlier result " + h5.string() + " was kept\n");
+  EXPECT_EQ(read_file(h5), "previous result");
+  EXPECT_EQ(temporaries_in(dir), 0);
+  io::Hdf5Reader f((dir / "r.failed.h5").string());
+  EXPECT_EQ(f.string_attribute("/summary", "status"), "diverged");
+  EXPECT_EQ(f.string_attribute("/summary", "message"), "Newton diverged at t = 0.3 s");
+  // 41 samples over 0.8 s: those at t = 0, 0.02, ..., 0.3 s; the NaN sample after them is left out.
+  const Eigen::VectorXd v = f.read_vector("/trajectories/simulated/V_lv");
+  ASSERT_EQ(v.size(), 16);
+  EXPECT_TRUE(v.allFinite());
+  EXPECT_NEAR(v(0), 150.0, 1e-9);  // mL
+  const auto j = nlohmann::json::parse(read_file(json));
+  EXPECT_EQ(j["status"], "diverged");
+  EXPECT_FALSE(j.contains("EF"));  // a part of a beat has no indices
+  EXPECT_NEAR(j["time_reached"]["value"].get<double>(), 0.3, 1e-12);
+  EXPECT_EQ(j["beats"]["value"].get<double>(), 3.0);
+  std::ifstream c(csv);
+  int lines = 0;
+  for (std::string line; std::getline(c, line);) ++lines;
+  EXPECT_EQ(lines, 17);  // header and 16 samples
+  EXPECT_NE(r.out.find("standin (test-beat): FAILED (diverged) in beat 3\n"), std::string::npos);
 }
 
 // A run that ends without a periodic beat still integrated its beats: the last one is written with
@@ -172,7 +211,8 @@ TEST(Cli, ValidateReportsOkAndParamsListsUnitsBoundsAndSources) {
             "V_ed    m^3   0.00015  1e-05  0.0005  config   end-diastolic volume\n"
             "EF      1         0.6   0.05     0.9  default  ejection fraction\n"
             "P_peak  Pa    1.6e+04   1000   4e+04  default  peak LV pressure\n"
-            "fail    1           0      0       1  default  > 0.5 makes the run fail ((0.8, 0.86): not periodic)\n");
+            "fail    1           0      0       1  default  > 0.5 makes the run fail ((0.8, 0.86): not periodic; (0.86, "
+            "0.89): diverged mid-beat)\n");
 }
 
 TEST(Cli, UnknownOptionOrMissingConfigExitsTwo) {

@@ -3,6 +3,8 @@
 // at; a lumped model asks for fields it does not have: exit 2 before any work.
 #include "app/blackbox/register.h"
 #include "app/cli.h"
+#include "app/errors.h"
+#include "app/io/hdf5_writer.h"
 #include "test_support.h"
 
 #include <gtest/gtest.h>
@@ -53,6 +55,29 @@ TEST(SimulateVtu, WritesTheLastBeatAsAParaViewTimeSeries) {
                              "fibre_strain", "fibre", "aha_segment"})
       EXPECT_NE(vtu.find("Name=\"" + std::string(name) + "\""), std::string::npos) << file << " " << name;
   }
+}
+
+// A beat whose Newton iterations are capped at 8 without step cuts diverges in its second step
+// (t = 0.08 s, the isovolumic contraction): the beat up to the first step is still written, its
+// curves and ParaView steps alike, with status "diverged" and no indices (exit 1).
+TEST(SimulateVtu, ABeatThatDivergesIsWrittenUpToItsLastStep) {
+  const auto dir = scratch_dir();
+  const auto cfg = write_file(dir / "beat.yaml", lv3d_config());
+  const CliRun r = cli3d({"--log-level", "off", "simulate", cfg.string(), "-o", (dir / "beat.h5").string(), "--vtu",
+                          (dir / "vtu").string(), "--set", "numerics.newton_max_iterations=8", "--set",
+                          "numerics.max_step_cuts=0"});
+  EXPECT_EQ(r.code, app::kExitRuntimeFailure);
+  EXPECT_NE(r.err.find("failed (diverged): Newton did not converge at t = 0.08 s"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("the beat up to t = 0.04 s of beat 1 is written to"), std::string::npos) << r.err;
+  EXPECT_NE(r.out.find("wrote 2 ParaView steps of the failing beat"), std::string::npos) << r.out;
+  const std::string pvd = read_file(dir / "vtu" / "beat.pvd");
+  EXPECT_NE(pvd.find("timestep=\"0.04\""), std::string::npos) << pvd;
+  app::io::Hdf5Reader f((dir / "beat.h5").string());
+  EXPECT_EQ(f.string_attribute("/summary", "status"), "diverged");
+  const Eigen::VectorXd t = f.read_vector("/trajectories/simulated/time");
+  ASSERT_EQ(t.size(), 2);
+  EXPECT_NEAR(t(1), 0.04, 1e-12);
+  EXPECT_EQ(f.read_vector("/trajectories/simulated/V_seg17").size(), 2);
 }
 
 TEST(SimulateVtu, ALumpedModelHasNoFieldsAndExitsTwoBeforeRunning) {

@@ -53,7 +53,8 @@ inline std::string read_file(const std::filesystem::path& path) {
 
 // One beat of period 0.8 s: a cosine volume curve and a pressure pulse. Parameters: V_ed [m^3]
 // (end-diastolic volume), EF [1] (ejection fraction), P_peak [Pa] and `fail` [1] (> 0.5: the run
-// reports kDiverged without a trajectory, except in (0.8, 0.86): kNotPeriodic with its last beat).
+// reports kDiverged without a trajectory, except in (0.8, 0.86): kNotPeriodic with its last beat, and
+// in (0.86, 0.89): kDiverged at t = 0.3 s with the beat's samples up to there, the last one NaN).
 // Channels V_lv [m^3], P_lv [Pa], phase [1].
 class BeatStandIn final : public model::Simulator {
  public:
@@ -64,7 +65,7 @@ class BeatStandIn final : public model::Simulator {
         {"V_ed", "m^3", 1.4e-4, 1e-5, 5e-4, "end-diastolic volume"},
         {"EF", "1", 0.6, 0.05, 0.9, "ejection fraction"},
         {"P_peak", "Pa", 16000.0, 1000.0, 40000.0, "peak LV pressure"},
-        {"fail", "1", 0.0, 0.0, 1.0, "> 0.5 makes the run fail ((0.8, 0.86): not periodic)"},
+        {"fail", "1", 0.0, 0.0, 1.0, "> 0.5 makes the run fail ((0.8, 0.86): not periodic; (0.86, 0.89): diverged mid-beat)"},
     });
   }
 
@@ -76,7 +77,8 @@ class BeatStandIn final : public model::Simulator {
   model::RunResult run(const Eigen::Ref<const Eigen::VectorXd>& theta) override {
     model::RunResult r;
     const bool not_periodic = theta(3) > 0.8 && theta(3) < 0.86;
-    if (theta(3) > 0.5 && !not_periodic) {
+    const bool mid_beat = theta(3) > 0.86 && theta(3) < 0.89;
+    if (theta(3) > 0.5 && !not_periodic && !mid_beat) {
       r.status = model::Status::Error(model::StatusCode::kDiverged, "Newton diverged at t = 0.3 s");
       return r;
     }
@@ -93,6 +95,16 @@ class BeatStandIn final : public model::Simulator {
     }
     r.info.beats = 3;
     r.info.period = period;
+    if (mid_beat) {
+      // The samples up to t = 0.3 s, then one that went non-finite.
+      int k = 0;
+      while (r.trajectory.times(k) <= 0.3 + 1e-12) ++k;
+      r.trajectory.times.conservativeResize(k + 1);
+      r.trajectory.values.conservativeResize(k + 1, Eigen::NoChange);
+      r.trajectory.values(k, 0) = std::numeric_limits<double>::quiet_NaN();
+      r.status = model::Status::Error(model::StatusCode::kDiverged, "Newton diverged at t = 0.3 s");
+      return r;
+    }
     r.info.periodicity_change = 1e-4;
     if (not_periodic) {
       r.info.periodicity_change = 0.02;
