@@ -161,10 +161,11 @@ int run_simulate(const SimulateOptions& o, CommandContext& ctx) {
   // no indices. Either way the command exits 1, and as for the estimation commands a file that
   // exists already is kept and this run's goes to <stem>.failed<ext> beside it (result_path). A
   // failure without at least two finite samples has nothing to show: nothing is written and an
-  // earlier result at -o stays.
+  // earlier result at -o stays; so does any other failure (an external program's).
   const Eigen::Index rows = result.trajectory.values.rows(), kept_rows = finite_rows(result.trajectory);
   const bool not_periodic = code == model::StatusCode::kNotPeriodic && rows > 1 && kept_rows == rows;
-  const bool partial = !result.status.ok() && !not_periodic && kept_rows > 1;
+  const bool partial =
+      (code == model::StatusCode::kDiverged || code == model::StatusCode::kNonFinite) && kept_rows > 1;
   const bool ok = result.status.ok();
   const std::string failure = ok ? std::string()
                                  : "simulation of '" + config.name + "' failed (" + model::to_string(code) +
