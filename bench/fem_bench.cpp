@@ -223,7 +223,7 @@ void BM_Lv3dGmresIterationBySize(benchmark::State& st) {
   const double matvec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / reps;
   // The same product row-major (GMRES's, solver.cpp): a kernel whose work is exactly linear in the
   // nonzeros, so its time per nonzero against size is this machine's memory hierarchy alone
-  // (docs/models.md s.4.8, "What a linear kernel costs").
+  // (docs/models.md s.4.8, "What a linear kernel costs on this machine").
   const Eigen::SparseMatrix<double, Eigen::RowMajor, int> Kr = K;
   const auto t1 = std::chrono::steady_clock::now();
   for (int r = 0; r < reps; ++r) {
