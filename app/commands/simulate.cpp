@@ -176,18 +176,17 @@ int run_simulate(const SimulateOptions& o, CommandContext& ctx) {
     beat.times.conservativeResize(kept_rows);
     beat.values.conservativeResize(kept_rows, Eigen::NoChange);
     if (rec.states.size() > static_cast<size_t>(kept_rows)) rec.states.erase(rec.states.begin() + kept_rows, rec.states.end());
-  }
-  if (partial)
     spdlog::info("failed in beat {} after {:.4f} s of it ({} samples kept), {} Newton iterations, {} step cuts",
                  result.info.beats, beat.times(kept_rows - 1), kept_rows, result.info.newton_iterations,
                  result.info.step_cuts);
-  else
+  } else {
     spdlog::info("{} after {} beats (change {:.2e}), {} Newton iterations, {} step cuts{}",
                  not_periodic ? "not periodic" : "periodic", result.info.beats, result.info.periodicity_change,
                  result.info.newton_iterations, result.info.step_cuts,
                  result.info.linear_iterations > 0
                      ? fmt::format(", {} GMRES iterations", result.info.linear_iterations)
                      : std::string());
+  }
   const auto indicators = partial ? failed_beat_facts(result, beat) : simulate_indicators(result, simulator->channels());
   const std::string status = model::to_string(code);
   std::string kept;

@@ -129,16 +129,28 @@ TEST(Cli, FailedSimulationExitsOneAndWritesNothing) {
   EXPECT_EQ(read_file(h5), "previous result");
 }
 
+// `simulate` of the stand-in (standin.yaml) with `--set fail=<fail>`, a summary s.json and curves
+// c.csv, in a fresh directory that already holds an earlier result r.h5.
+struct FailedSimulation {
+  std::filesystem::path dir, h5, json, csv;
+  CliRun run;
+};
+FailedSimulation simulate_failing(const std::string& fail) {
+  FailedSimulation f;
+  f.dir = scratch_dir();
+  const auto config = write_file(f.dir / "standin.yaml", kStandIn);
+  f.h5 = write_file(f.dir / "r.h5", "previous result");
+  f.json = f.dir / "s.json";
+  f.csv = f.dir / "c.csv";
+  f.run = cli({"--log-level", "off", "simulate", config.string(), "-o", f.h5.string(), "--summary", f.json.string(),
+               "--csv", f.csv.string(), "--set", "fail=" + fail});
+  return f;
+}
+
 // A run that diverged inside a beat writes that beat's finite samples up to the failure, without
 // indices, with status "diverged" and its message (exit 1), beside an earlier result, which stays.
 TEST(Cli, DivergedSimulationExitsOneAndWritesTheBeatUpToTheFailure) {
-  const auto dir = scratch_dir();
-  const auto config = write_file(dir / "standin.yaml", kStandIn);
-  const auto h5 = write_file(dir / "r.h5", "previous result");
-  const auto json = dir / "s.json";
-  const auto csv = dir / "c.csv";
-  const CliRun r = cli({"--log-level", "off", "simulate", config.string(), "-o", h5.string(), "--summary",
-                        json.string(), "--csv", csv.string(), "--set", "fail=0.87"});
+  const auto [dir, h5, json, csv, r] = simulate_failing("0.87");
   EXPECT_EQ(r.code, kExitRuntimeFailure);
   EXPECT_EQ(r.err, "error: simulation of 'standin' failed (diverged): Newton diverged at t = 0.3 s; the beat up to "
                    "t = 0.3 s of beat 3 is written to " +
@@ -168,12 +180,7 @@ TEST(Cli, DivergedSimulationExitsOneAndWritesTheBeatUpToTheFailure) {
 // A run that ends without a periodic beat still integrated its beats: the last one is written with
 // status "not-periodic" (exit 1), beside an earlier result, which stays.
 TEST(Cli, NotPeriodicSimulationExitsOneAndWritesItsLastBeatBesideTheEarlierResult) {
-  const auto dir = scratch_dir();
-  const auto config = write_file(dir / "standin.yaml", kStandIn);
-  const auto h5 = write_file(dir / "r.h5", "previous result");
-  const auto json = dir / "s.json";
-  const CliRun r = cli({"--log-level", "off", "simulate", config.string(), "-o", h5.string(), "--summary",
-                        json.string(), "--set", "fail=0.85"});
+  const auto [dir, h5, json, csv, r] = simulate_failing("0.85");
   EXPECT_EQ(r.code, kExitRuntimeFailure);
   EXPECT_EQ(r.err, "error: simulation of 'standin' failed (not-periodic): not periodic after 3 beats: beat-to-beat "
                    "change 0.02 > periodic_tolerance 0.001; the last beat is written to " +
@@ -190,7 +197,9 @@ TEST(Cli, NotPeriodicSimulationExitsOneAndWritesItsLastBeatBesideTheEarlierResul
   EXPECT_NEAR(j["periodicity_change"]["value"].get<double>(), 0.02, 1e-12);
   // No earlier result: the files go where asked.
   const auto fresh = dir / "fresh.h5";
-  EXPECT_EQ(cli({"--log-level", "off", "simulate", config.string(), "-o", fresh.string(), "--set", "fail=0.85"}).code,
+  EXPECT_EQ(cli({"--log-level", "off", "simulate", (dir / "standin.yaml").string(), "-o", fresh.string(), "--set",
+                 "fail=0.85"})
+                .code,
             kExitRuntimeFailure);
   EXPECT_EQ(io::Hdf5Reader(fresh.string()).string_attribute("/summary", "status"), "not-periodic");
 }
