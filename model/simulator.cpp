@@ -164,4 +164,11 @@ RunResult Simulator::run_warm(const Eigen::Ref<const Eigen::VectorXd>& theta,
   return run(theta);
 }
 
+std::unique_ptr<SteppableSimulator> into_steppable(std::unique_ptr<Simulator> simulator) {
+  SteppableSimulator* steppable = simulator ? simulator->steppable() : nullptr;
+  if (steppable == nullptr) return nullptr;
+  simulator.release();
+  return std::unique_ptr<SteppableSimulator>(steppable);
+}
+
 }  // namespace sigmaheart::model

@@ -10,6 +10,8 @@
 
 #include <Eigen/Core>
 
+#include <functional>
+#include <iosfwd>
 #include <limits>
 #include <memory>
 #include <optional>
@@ -135,6 +137,15 @@ struct RunResult {
 };
 
 // ---------------------------------------------------------------------------------------------
+// Capabilities beyond run(): a simulator answers each query with an interface, or nullptr when it
+// has no such capability. Commands and estimators ask, never cast to a concrete model:
+//   steppable()  the state can be stopped, saved, edited and resumed (the ROUKF needs it);
+//   fields()     the state has spatial fields (`simulate --vtu` writes them for any model);
+//   regional channels are tagged (Channel::family "regional_volume", segment 1..N).
+struct State;
+class SteppableSimulator;
+class FieldOutput;
+
 class Simulator {
  public:
   virtual ~Simulator() = default;
@@ -162,6 +173,10 @@ class Simulator {
   // periodic tolerance.
   virtual RunResult run_warm(const Eigen::Ref<const Eigen::VectorXd>& theta,
                              const Eigen::VectorXd& from, Eigen::VectorXd* produce);
+
+  // Capability queries (above); the interfaces live as long as this simulator.
+  virtual SteppableSimulator* steppable() { return nullptr; }
+  virtual FieldOutput* fields() { return nullptr; }
 };
 
 // A simulator whose state can be stopped, saved, edited and resumed: what the ROUKF needs.
@@ -194,6 +209,29 @@ class SteppableSimulator : public Simulator {
     (void)factor;
     return nullptr;
   }
+
+  SteppableSimulator* steppable() final { return this; }
+};
+
+// The simulator as a SteppableSimulator when it is one (ownership passes), else nullptr and the
+// simulator is destroyed.
+std::unique_ptr<SteppableSimulator> into_steppable(std::unique_ptr<Simulator> simulator);
+
+// Spatial fields of a model's state (3D models): observed at every output step of run(), written
+// as one VTK XML UnstructuredGrid document per state.
+class FieldOutput {
+ public:
+  virtual ~FieldOutput() = default;
+
+  // Called during run() at t = 0 of every beat and after every kept output step (the rows of the
+  // returned trajectory) with the beat (from 1), the time in that beat [s] and the state; an empty
+  // function removes the observer. Clones do not inherit it.
+  using StepObserver = std::function<void(int beat, double t_in_beat, const State& state)>;
+  virtual void observe_steps(StepObserver observer) = 0;
+
+  // Writes the fields of `state` (layout of the model's state) as one binary VTU document.
+  // Throws std::invalid_argument when the state does not belong to this model.
+  virtual void write_fields(const State& state, std::ostream& os) = 0;
 };
 
 // Closest candidate by edit distance, for "did you mean" messages; empty if none is close.

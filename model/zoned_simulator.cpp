@@ -10,10 +10,9 @@ namespace sigmaheart::model {
 namespace {
 
 std::unique_ptr<SteppableSimulator> as_steppable(std::unique_ptr<Simulator> s) {
-  auto* raw = dynamic_cast<SteppableSimulator*>(s.get());
-  if (raw == nullptr) throw std::logic_error("ZonedSimulator: the inner clone is not steppable");
-  s.release();
-  return std::unique_ptr<SteppableSimulator>(raw);
+  std::unique_ptr<SteppableSimulator> steppable = into_steppable(std::move(s));
+  if (!steppable) throw std::logic_error("ZonedSimulator: the inner clone is not steppable");
+  return steppable;
 }
 
 }  // namespace

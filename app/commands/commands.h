@@ -52,7 +52,9 @@ void register_synthesize(CLI::App& app, CommandContext& ctx);
 void register_sensitivity(CLI::App& app, CommandContext& ctx);
 void register_specificity(CLI::App& app, CommandContext& ctx);
 void register_personalize(CLI::App& app, CommandContext& ctx);
-void register_benchmark(CLI::App& app, CommandContext& ctx);  // the 3D Land et al. 2015 benchmark
+void register_benchmark(CLI::App& app, CommandContext& ctx);  // 3D mechanics benchmarks: land, arostica
+void add_land_benchmark(CLI::App& benchmark, CommandContext& ctx);      // benchmark_land.cpp
+void add_arostica_benchmark(CLI::App& benchmark, CommandContext& ctx);  // benchmark_arostica.cpp
 void register_serve(CLI::App& app, CommandContext& ctx);      // UM-Bridge server (app/blackbox/)
 
 // Helpers shared by the commands ---------------------------------------------------------------

@@ -45,15 +45,12 @@ int run_personalize(const StudyOptions& o, CommandContext& ctx) {
   PersonalizeProblem problem = parse_personalize(config);
   StudyRun study(o, ctx, config, "personalize");
 
-  std::unique_ptr<model::Simulator> made = config.simulator.make();
-  auto* raw = dynamic_cast<model::SteppableSimulator*>(made.get());
-  if (raw == nullptr) {
+  std::unique_ptr<model::SteppableSimulator> simulator = model::into_steppable(config.simulator.make());
+  if (!simulator) {
     config.file.root()["simulator"]["model"].fail(
         "model " + config.simulator.model + " cannot be advanced step by step; personalize needs a "
-        "steppable simulator (lumped-regional, lumped-sphere, lv-3d)");
+        "steppable simulator (lumped-regional, lumped-sphere, lv-3d, or external with steppable: true)");
   }
-  made.release();
-  std::unique_ptr<model::SteppableSimulator> simulator(raw);
   // Tied segments: the filter sees one parameter per zone (model/zoned_simulator.h).
   if (!problem.zones.empty()) simulator = std::make_unique<model::ZonedSimulator>(std::move(simulator), problem.zones);
   const model::SteppableSimulator* steppable = simulator.get();

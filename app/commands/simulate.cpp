@@ -3,111 +3,42 @@
 #include "app/commands/commands.h"
 #include "app/config.h"
 #include "app/errors.h"
-#include "app/io/atomic_file.h"
+#include "app/io/beat_summary.h"
 #include "app/io/mesh_io.h"
 #include "app/io/results.h"
-#include "observers/global_indices.h"
-#ifdef SIGMAHEART_HAVE_FEM
-#include "model/fem/electromechanics.h"
-#endif
-
-#include <cmath>
 
 #include <omp.h>
 #include <spdlog/spdlog.h>
-
 
 namespace sigmaheart::app {
 
 namespace {
 
-// The beat's global indices (observers/global_indices.h) in display units (EF in %), then the
-// run's beat-level facts. An index the observer cannot compute is reported and left out.
-std::vector<io::Indicator> simulate_indicators(const model::RunResult& result,
-                                               const std::vector<model::Channel>& channels) {
-  std::vector<io::Indicator> out;
-  try {
-    const observers::GlobalIndices indices({}, channels);
-    Eigen::VectorXd z(indices.size());
-    const model::Status status = indices.observe(result.trajectory, z);
-    if (status.ok()) {
-      const auto outputs = indices.outputs();
-      for (size_t i = 0; i < outputs.size(); ++i) {
-        const double si = z(static_cast<Eigen::Index>(i));
-        if (outputs[i].name == "EF") {
-          out.push_back({"EF", 100.0 * si, "%", "ejection fraction SV / EDV"});
-          continue;
-        }
-        const io::DisplayUnit d = io::display_unit(outputs[i].unit);
-        out.push_back({outputs[i].name, si * d.from_si, d.unit, outputs[i].doc});
-      }
-    } else {
-      spdlog::warn("indices of the simulated beat: {}", status.message);
-    }
-  } catch (const std::invalid_argument& e) {
-    spdlog::warn("indices of the simulated beat: {}", e.what());
-  }
-  out.push_back({"period", result.info.period, "s", "heart period"});
-  out.push_back({"beats", static_cast<double>(result.info.beats), "1",
-                 "beats integrated: until the beat was periodic, or all allowed (status not-periodic)"});
-  out.push_back({"periodicity_change", result.info.periodicity_change, "1",
-                 "distance of the last beat's start state from periodic, relative to each entry's scale "
-                 "(the shooting's last Newton correction, or lv-3d's beat-to-beat change)"});
-  return out;
-}
-
-// A run that failed inside a beat (diverged, non-finite): no indices (a part of a beat has no EDV
-// or EF), only where it stopped.
-std::vector<io::Indicator> failed_beat_facts(const model::RunResult& result, const model::Trajectory& beat) {
-  return {{"period", result.info.period, "s", "heart period"},
-          {"beats", static_cast<double>(result.info.beats), "1", "beats begun; the last one failed"},
-          {"time_reached", beat.times(beat.samples() - 1), "s",
-           "time of the last sample written, from the start of the failing beat"}};
-}
-
-// The leading samples of a trajectory whose values are all finite.
-Eigen::Index finite_rows(const model::Trajectory& tr) {
-  Eigen::Index k = 0;
-  while (k < tr.values.rows() && k < tr.times.size() && tr.values.row(k).allFinite() && std::isfinite(tr.times(k))) ++k;
-  return k;
-}
-
-// The states of the last beat of a 3D run, for its ParaView time series, and progress lines per
-// beat (a 3D beat takes tens of seconds).
+// The states of the last beat of a model with fields (model::FieldOutput), for its ParaView time
+// series, and a progress line per beat (a 3D beat takes tens of seconds).
 struct BeatRecorder {
   bool keep_states = false;
   int beat = 0;
   std::vector<std::pair<double, model::State>> states;  // (time in beat [s], state)
+
+  void attach(model::FieldOutput& fields) {
+    fields.observe_steps([this](int b, double t, const model::State& s) {
+      if (b != beat) {
+        spdlog::info("beat {} ...", b);
+        beat = b;
+        states.clear();
+      }
+      if (keep_states) states.emplace_back(t, s);
+    });
+  }
 };
 
-#ifdef SIGMAHEART_HAVE_FEM
-model::fem::LeftVentricle3D* as_3d(model::Simulator* s) { return dynamic_cast<model::fem::LeftVentricle3D*>(s); }
-#endif
-
-// One binary VTU per kept step of the last beat, `<name>_NNNN.vtu`, and `<name>.pvd` with the time
-// in the beat [s]; every file is written to a temporary name and renamed (app/io/atomic_file.h).
-// Returns the .pvd path.
-std::filesystem::path write_beat_vtu(model::Simulator* simulator, const BeatRecorder& rec,
-                                     const std::filesystem::path& dir, const std::string& name) {
-#ifdef SIGMAHEART_HAVE_FEM
-  auto* lv = as_3d(simulator);
-  std::filesystem::create_directories(dir);
-  std::vector<std::pair<double, std::string>> steps;
-  for (size_t i = 0; i < rec.states.size(); ++i) {
-    char file[32];
-    std::snprintf(file, sizeof file, "_%04zu.vtu", i);
-    const std::string fname = name + file;
-    const model::fem::VtuDocument doc = lv->field_document(rec.states[i].second);
-    io::write_text_file(dir / fname, [&](std::ostream& os) { doc.write(os); });
-    steps.emplace_back(rec.states[i].first, fname);
-  }
-  const std::filesystem::path pvd = dir / (name + ".pvd");
-  io::write_pvd(pvd.string(), steps);
-  return pvd;
-#else
-  (void)simulator, (void)rec, (void)dir, (void)name;
-  throw RunFailure("sigmaheart was built without model/fem: no ParaView output");
-#endif
+void check_vtu_directory(const std::filesystem::path& dir) {
+  std::error_code ec;
+  if (std::filesystem::exists(dir, ec) && !std::filesystem::is_directory(dir, ec))
+    throw InputError("--vtu " + dir.string(), 0, 0, "is a file; expected a directory for the .vtu/.pvd files");
+  std::filesystem::create_directories(dir, ec);
+  if (ec) throw InputError("--vtu " + dir.string(), 0, 0, "cannot create the directory: " + ec.message());
 }
 
 }  // namespace
@@ -117,13 +48,7 @@ int run_simulate(const SimulateOptions& o, CommandContext& ctx) {
   const Config config = load_config(o.config, o.overrides, *ctx.models, *ctx.sections);
   const std::filesystem::path output = !o.output.empty() ? o.output : default_output_path(o.config, "simulate");
   check_outputs({{"-o", output}, {"--csv", o.csv}, {"--summary", o.summary}}, {o.config});
-  if (!o.vtu.empty()) {
-    std::error_code ec;
-    if (std::filesystem::exists(o.vtu, ec) && !std::filesystem::is_directory(o.vtu, ec))
-      throw InputError("--vtu " + o.vtu.string(), 0, 0, "is a file; expected a directory for the .vtu/.pvd files");
-    std::filesystem::create_directories(o.vtu, ec);
-    if (ec) throw InputError("--vtu " + o.vtu.string(), 0, 0, "cannot create the directory: " + ec.message());
-  }
+  if (!o.vtu.empty()) check_vtu_directory(o.vtu);
 
   auto simulator = config.simulator.make();
   const Eigen::VectorXd theta = config.simulator.parameters.nominal();
@@ -131,23 +56,12 @@ int run_simulate(const SimulateOptions& o, CommandContext& ctx) {
                theta.size());
   BeatRecorder rec;
   rec.keep_states = !o.vtu.empty();
-#ifdef SIGMAHEART_HAVE_FEM
-  if (auto* lv = as_3d(simulator.get())) {
-    lv->set_beat_observer([&rec](int beat, double t, const model::State& s) {
-      if (beat != rec.beat) {
-        spdlog::info("beat {} ...", beat);
-        rec.beat = beat;
-        rec.states.clear();
-      }
-      if (rec.keep_states) rec.states.emplace_back(t, s);
-    });
+  if (model::FieldOutput* fields = simulator->fields()) {
+    rec.attach(*fields);
   } else if (rec.keep_states) {
-    throw InputError("--vtu", 0, 0, "model '" + simulator->name() +
-                                        "' has no 3D fields; ParaView output needs `model: lv-3d`");
+    throw InputError("--vtu", 0, 0, "model '" + simulator->name() + "' offers no spatial fields for ParaView (" +
+                                        "a model with fields, such as lv-3d, does)");
   }
-#else
-  if (rec.keep_states) throw InputError("--vtu", 0, 0, "sigmaheart was built without model/fem (no 3D fields)");
-#endif
   const model::RunResult result = simulator->run(theta);
   const auto code = result.status.code;
   if (code == model::StatusCode::kOutOfBounds || code == model::StatusCode::kInvalidArgument) {
@@ -162,7 +76,7 @@ int run_simulate(const SimulateOptions& o, CommandContext& ctx) {
   // exists already is kept and this run's goes to <stem>.failed<ext> beside it (result_path). A
   // failure without at least two finite samples has nothing to show: nothing is written and an
   // earlier result at -o stays; so does any other failure (an external program's).
-  const Eigen::Index rows = result.trajectory.values.rows(), kept_rows = finite_rows(result.trajectory);
+  const Eigen::Index rows = result.trajectory.values.rows(), kept_rows = io::finite_rows(result.trajectory);
   const bool not_periodic = code == model::StatusCode::kNotPeriodic && rows > 1 && kept_rows == rows;
   const bool partial =
       (code == model::StatusCode::kDiverged || code == model::StatusCode::kNonFinite) && kept_rows > 1;
@@ -187,7 +101,8 @@ int run_simulate(const SimulateOptions& o, CommandContext& ctx) {
                      ? fmt::format(", {} GMRES iterations", result.info.linear_iterations)
                      : std::string());
   }
-  const auto indicators = partial ? failed_beat_facts(result, beat) : simulate_indicators(result, simulator->channels());
+  const auto indicators =
+      partial ? io::failed_beat_facts(result, beat) : io::beat_indicators(result, simulator->channels());
   const std::string status = model::to_string(code);
   std::string kept;
   const std::filesystem::path h5_path = result_path(output, ok, &kept);
@@ -224,7 +139,7 @@ int run_simulate(const SimulateOptions& o, CommandContext& ctx) {
   if (!csv_path.empty()) io::write_trajectory_csv(csv_path, beat);
   if (!summary_path.empty()) io::write_indicators_json(summary_path, indicators, &prov, status);
   std::filesystem::path pvd;
-  if (rec.keep_states) pvd = write_beat_vtu(simulator.get(), rec, o.vtu, vtu_name);
+  if (rec.keep_states) pvd = io::write_field_series(*simulator->fields(), rec.states, o.vtu, vtu_name);
 
   if (partial)
     ctx.out << config.name << " (" << simulator->name() << "): FAILED (" << status << ") in beat "
@@ -254,8 +169,9 @@ void register_simulate(CLI::App& app, CommandContext& ctx) {
   sub->add_option("--csv", opts->csv, "Also write the curves as CSV (header 'name [unit]')");
   sub->add_option("--summary", opts->summary, "Also write the indices as JSON");
   sub->add_option("--vtu", opts->vtu,
-                  "3D models: write the last beat as binary VTU files plus a .pvd index into this directory "
-                  "(ParaView: displacement, activation time, active stress, fibre strain, AHA segments)");
+                  "Models with spatial fields (lv-3d): write the last beat as binary VTU files plus a .pvd "
+                  "index into this directory (lv-3d: displacement, activation time, active stress, fibre "
+                  "strain, AHA segments)");
   add_set_option(*sub, opts->overrides);
   sub->callback([opts, &ctx] { ctx.run = [opts, &ctx] { return run_simulate(*opts, ctx); }; });
 }

@@ -3,6 +3,7 @@
 #include "app/errors.h"
 #include "app/io/atomic_file.h"
 #include "app/io/hdf5_writer.h"
+#include "model/fem/vtk_output.h"
 
 #include <Eigen/Dense>
 
@@ -445,17 +446,26 @@ void write_vtu(const std::string& path, const Mesh& mesh, const VtuFields& field
 }
 
 void write_pvd(const std::string& path, const std::vector<std::pair<double, std::string>>& steps) {
-  AtomicFile file{std::filesystem::path(path)};
-  const std::string tmp = file.temp_path().string();
-  {
-    std::ofstream os(tmp);
-    if (!os) throw std::runtime_error("cannot write " + tmp);
-    os << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\">\n<Collection>\n";
-    for (const auto& [t, f] : steps) os << "<DataSet timestep=\"" << t << "\" part=\"0\" file=\"" << f << "\"/>\n";
-    os << "</Collection>\n</VTKFile>\n";
-    if (!os) throw std::runtime_error("error while writing " + tmp);
+  std::vector<PvdEntry> entries;
+  for (const auto& [t, f] : steps) entries.push_back({t, f});
+  write_text_file(std::filesystem::path(path), [&](std::ostream& os) { model::fem::write_pvd(os, entries); });
+}
+
+std::filesystem::path write_field_series(model::FieldOutput& fields,
+                                         const std::vector<std::pair<double, model::State>>& states,
+                                         const std::filesystem::path& dir, const std::string& name) {
+  std::filesystem::create_directories(dir);
+  std::vector<std::pair<double, std::string>> steps;
+  for (size_t i = 0; i < states.size(); ++i) {
+    char suffix[32];
+    std::snprintf(suffix, sizeof suffix, "_%04zu.vtu", i);
+    const std::string file = name + suffix;
+    write_text_file(dir / file, [&](std::ostream& os) { fields.write_fields(states[i].second, os); });
+    steps.emplace_back(states[i].first, file);
   }
-  file.commit();
+  const std::filesystem::path pvd = dir / (name + ".pvd");
+  write_pvd(pvd.string(), steps);
+  return pvd;
 }
 
 Mesh read_dolfin_hdf5(const std::string& path) {

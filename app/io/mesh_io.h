@@ -19,9 +19,11 @@
 
 #include "model/fem/material.h"
 #include "model/fem/mesh.h"
+#include "model/simulator.h"
 
 #include <Eigen/Core>
 
+#include <filesystem>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -50,7 +52,15 @@ struct VtuFields {
 // Writes one VTU file (quadratic tetrahedra as VTK_QUADRATIC_TETRA). Throws std::runtime_error.
 void write_vtu(const std::string& path, const model::fem::Mesh& mesh, const VtuFields& fields);
 
-// Writes a .pvd collection listing (time, file) pairs (file names relative to the .pvd).
+// Writes a .pvd collection listing (time, file) pairs (file names relative to the .pvd); times
+// read back exactly.
 void write_pvd(const std::string& path, const std::vector<std::pair<double, std::string>>& steps);
+
+// The ParaView time series of any model that offers fields (model::FieldOutput): one binary VTU
+// per (time, state), `<name>_NNNN.vtu`, and `<name>.pvd` with the times, in `dir` (created).
+// Returns the .pvd path.
+std::filesystem::path write_field_series(model::FieldOutput& fields,
+                                         const std::vector<std::pair<double, model::State>>& states,
+                                         const std::filesystem::path& dir, const std::string& name);
 
 }  // namespace sigmaheart::app::io

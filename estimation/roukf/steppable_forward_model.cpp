@@ -16,14 +16,11 @@ SteppableForwardModel::SteppableForwardModel(std::unique_ptr<model::SteppableSim
 
 std::unique_ptr<model::SteppableSimulator> SteppableForwardModel::clone_steppable(
     const model::SteppableSimulator& s) {
-  std::unique_ptr<model::Simulator> c = s.clone();
-  auto* steppable = dynamic_cast<model::SteppableSimulator*>(c.get());
-  if (steppable == nullptr) {
-    throw std::logic_error("clone() of steppable simulator '" + s.name() +
-                           "' is not a SteppableSimulator");
+  std::unique_ptr<model::SteppableSimulator> steppable = model::into_steppable(s.clone());
+  if (!steppable) {
+    throw std::logic_error("clone() of steppable simulator '" + s.name() + "' is not steppable");
   }
-  c.release();
-  return std::unique_ptr<model::SteppableSimulator>(steppable);
+  return steppable;
 }
 
 int SteppableForwardModel::input_size() const { return simulator_->parameters().size(); }

@@ -850,6 +850,8 @@ Status LeftVentricle3D::check_theta(const Eigen::Ref<const Eigen::VectorXd>& the
   return Status::Ok();
 }
 
+void LeftVentricle3D::write_fields(const model::State& state, std::ostream& os) { field_document(state).write(os); }
+
 VtuDocument LeftVentricle3D::field_document(const model::State& state) {
   if (state.x.size() != impl_->state_size())
     throw std::invalid_argument("field_document: the state has " + std::to_string(state.x.size()) +

@@ -180,7 +180,7 @@ struct LeftVentricle3DOptions {
 // vertex), P_v, P_ar, P_d, then e_c, k_c, tau_c per quadrature point, then last_open_valve.
 // t = 0 of every beat is the earliest depolarisation; run() starts from the unloaded mesh,
 // inflates it to the atrial pressure of t = 0 and repeats beats until the beat-start state repeats.
-class LeftVentricle3D final : public SteppableSimulator {
+class LeftVentricle3D final : public SteppableSimulator, public FieldOutput {
  public:
   // Throws std::invalid_argument for invalid options or parameter names (message says which).
   LeftVentricle3D(LeftVentricle3DOptions options, ParameterSpace parameters);
@@ -210,12 +210,11 @@ class LeftVentricle3D final : public SteppableSimulator {
   // Activation time of every quadrature point (element-major) [s].
   const std::vector<double>& activation_times() const;
 
-  // Observer of run(): called at t = 0 of every beat and after every kept output step (the rows
-  // of the returned trajectory) with the beat number (from 1), the time in the beat [s] and the
-  // state (layout of state_layout()). `sigmaheart simulate --vtu` keeps the states of the last,
-  // periodic beat this way. Clones do not inherit the observer.
-  using BeatObserver = std::function<void(int beat, double t_in_beat, const model::State& state)>;
-  void set_beat_observer(BeatObserver observer) { observer_ = std::move(observer); }
+  // Fields (model/simulator.h, FieldOutput): `sigmaheart simulate --vtu` keeps the states of the
+  // last beat through observe_steps() and writes each with write_fields() (field_document below).
+  FieldOutput* fields() override { return this; }
+  void observe_steps(StepObserver observer) override { observer_ = std::move(observer); }
+  void write_fields(const model::State& state, std::ostream& os) override;
 
   // ParaView document of a state (docs/models.md s.4.7-4.8): the deformed nodes, point data
   // `displacement` [m] and `hydrostatic_pressure` [Pa] (P1, mid-edge nodes the mean of their
@@ -243,7 +242,7 @@ class LeftVentricle3D final : public SteppableSimulator {
   LeftVentricle3DOptions options_;
   ParameterSpace parameters_;
   std::unique_ptr<Impl> impl_;
-  BeatObserver observer_;
+  StepObserver observer_;
 };
 
 }  // namespace sigmaheart::model::fem

@@ -1,10 +1,13 @@
 // `sigmaheart simulate --vtu` (app/commands/simulate.cpp, docs/models.md s.4.8): the last beat of
-// lv-3d as binary VTU files with a .pvd index, one per kept step, carrying the fields people look
-// at; a lumped model asks for fields it does not have: exit 2 before any work.
+// any model that offers fields (model::FieldOutput) as binary VTU files with a .pvd index, one per
+// kept step: lv-3d with the fields people look at, and a stand-in model app/ knows nothing of; a
+// lumped model asks for fields it does not have: exit 2 before any work.
 #include "app/blackbox/register.h"
 #include "app/cli.h"
 #include "app/errors.h"
 #include "app/io/hdf5_writer.h"
+#include "model/fem/mesh.h"
+#include "model/fem/vtk_output.h"
 #include "test_support.h"
 
 #include <gtest/gtest.h>
@@ -19,6 +22,59 @@ namespace {
 CliRun cli3d(const std::vector<std::string>& args) {
   std::ostringstream out, err;
   const int code = app::run_cli(args, out, err, app::blackbox::cli_models());
+  return {code, out.str(), err.str()};
+}
+
+// A model app/ has never heard of, with fields: the beat of "test-beat" (BeatStandIn), and as its
+// state one tetrahedron whose first vertex moves with the volume; its VTU carries the point data
+// `volume_fraction` (V / V_ed). It reports each of its samples to the step observer.
+class FieldStandIn final : public model::Simulator, public model::FieldOutput {
+ public:
+  explicit FieldStandIn(model::ParameterSpace p) : beat_(std::move(p), 21) {}
+  std::string name() const override { return "test-fields"; }
+  const model::ParameterSpace& parameters() const override { return beat_.parameters(); }
+  std::vector<model::Channel> channels() const override { return beat_.channels(); }
+  model::RunResult run(const Eigen::Ref<const Eigen::VectorXd>& theta) override {
+    model::RunResult r = beat_.run(theta);
+    for (int k = 0; observer_ && k < r.trajectory.samples(); ++k) {
+      model::State s;
+      s.time = r.trajectory.times(k);
+      s.x = Eigen::VectorXd::Constant(1, r.trajectory.values(k, 0) / theta(0));
+      observer_(1, s.time, s);
+    }
+    return r;
+  }
+  std::unique_ptr<model::Simulator> clone() const override { return std::make_unique<FieldStandIn>(parameters()); }
+  model::FieldOutput* fields() override { return this; }
+  void observe_steps(StepObserver observer) override { observer_ = std::move(observer); }
+  void write_fields(const model::State& state, std::ostream& os) override {
+    model::fem::Mesh mesh;
+    mesh.nodes = Eigen::MatrixX3d{{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    mesh.nodes(0, 0) = -state.x(0);
+    mesh.n_vertices = 4;
+    mesh.tets = Eigen::MatrixXi{{0, 1, 2, 3}};
+    model::fem::VtuDocument doc(mesh);
+    doc.add_point_data("volume_fraction", Eigen::VectorXd::Constant(4, state.x(0)));
+    doc.write(os);
+  }
+
+ private:
+  BeatStandIn beat_;
+  StepObserver observer_;
+};
+
+CliRun cli_fields(const std::vector<std::string>& args) {
+  static const model::ModelRegistry registry = [] {
+    model::ModelRegistry r = model::builtin_models();
+    r.add(model::ModelSetup{"test-fields", "stand-in with fields", [](const model::OptionReader&) {
+                              return model::ModelBuild(BeatStandIn::defaults(), [](const model::ParameterSpace& p) {
+                                return std::unique_ptr<model::Simulator>(std::make_unique<FieldStandIn>(p));
+                              });
+                            }});
+    return r;
+  }();
+  std::ostringstream out, err;
+  const int code = app::run_cli(args, out, err, registry);
   return {code, out.str(), err.str()};
 }
 
@@ -38,7 +94,7 @@ TEST(SimulateVtu, WritesTheLastBeatAsAParaViewTimeSeries) {
 
   // The index lists every step of the beat, times from 0 to the period (0.85 s).
   const std::string pvd = read_file(dir / "vtu" / "beat.pvd");
-  const std::regex entry(R"re(<DataSet timestep="([^"]+)" part="0" file="(beat_\d{4}\.vtu)"/>)re");
+  const std::regex entry(R"re(<DataSet timestep="([^"]+)" group="" part="0" file="(beat_\d{4}\.vtu)"/>)re");
   std::vector<std::pair<double, std::string>> steps;
   for (auto it = std::sregex_iterator(pvd.begin(), pvd.end(), entry); it != std::sregex_iterator(); ++it)
     steps.emplace_back(std::stod((*it)[1]), (*it)[2]);
@@ -80,12 +136,32 @@ TEST(SimulateVtu, ABeatThatDivergesIsWrittenUpToItsLastStep) {
   EXPECT_EQ(f.read_vector("/trajectories/simulated/V_seg17").size(), 2);
 }
 
+TEST(SimulateVtu, AnyModelThatOffersFieldsGetsItsBeatAsAParaViewSeries) {
+  const auto dir = scratch_dir();
+  const auto cfg = write_file(dir / "f.yaml", "name: f\nsimulator:\n  model: test-fields\n");
+  const CliRun r = cli_fields({"simulate", cfg.string(), "-o", (dir / "f.h5").string(), "--vtu", (dir / "vtu").string()});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const std::string pvd = read_file(dir / "vtu" / "f.pvd");
+  const std::regex entry(R"re(<DataSet timestep="([^"]+)" group="" part="0" file="(f_\d{4}\.vtu)"/>)re");
+  std::vector<std::pair<double, std::string>> steps;
+  for (auto it = std::sregex_iterator(pvd.begin(), pvd.end(), entry); it != std::sregex_iterator(); ++it)
+    steps.emplace_back(std::stod((*it)[1]), (*it)[2]);
+  ASSERT_EQ(steps.size(), 21u);  // every sample of the beat, 0 to 0.8 s
+  EXPECT_EQ(steps.front().first, 0.0);
+  EXPECT_NEAR(steps.back().first, 0.8, 1e-12);
+  for (const auto& [t, file] : steps) {
+    const std::string vtu = read_file(dir / "vtu" / file);
+    EXPECT_NE(vtu.find("<DataArray type=\"Float64\" Name=\"volume_fraction\""), std::string::npos) << file;
+  }
+  EXPECT_EQ(temporaries_in(dir / "vtu"), 0);
+}
+
 TEST(SimulateVtu, ALumpedModelHasNoFieldsAndExitsTwoBeforeRunning) {
   const auto dir = scratch_dir();
   const auto cfg = write_file(dir / "sphere.yaml", "name: s\nsimulator:\n  model: lumped-sphere\n");
   const CliRun r = cli({"simulate", cfg.string(), "-o", (dir / "s.h5").string(), "--vtu", (dir / "vtu").string()});
   EXPECT_EQ(r.code, 2);
-  EXPECT_NE(r.err.find("has no 3D fields"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("offers no spatial fields"), std::string::npos) << r.err;
   EXPECT_FALSE(std::filesystem::exists(dir / "s.h5"));
 
   // A file where the directory should go.
