@@ -4,11 +4,12 @@
 // one (GMRES + BoomerAMG, model/fem/solver.h). Counters: unknowns, tangent nonzeros, LU factor nonzeros and peak
 // resident memory (VmHWM); Complexity() fits the growth rate in the number of unknowns.
 // BM_Lv3dGmresIterationBySize: the time of one GMRES iteration per unknown on the stabilised linear
-// lv-3d tangent, coarse mesh to 166 000 unknowns (docs/models.md s.4.8, "Cost").
+// lv-3d tangent, coarse mesh to 166 000 unknowns (docs/solvers.md s.5;
+// experiments/lv3d-solver/NOTES.md).
 //   build/bench/fem_bench --benchmark_counters_tabular=true
 // BM_Lv3dSchurSpectrum: the eigenvalues of the pressure Schur complement against its approximation
-// on the same tangent, and the GMRES iterations they imply (docs/models.md s.4.8, "Where the
-// iterations grow"; about 10 minutes):
+// on the same tangent, and the GMRES iterations they imply (experiments/lv3d-solver/NOTES.md, "The
+// spectrum of the Schur approximation"; about 10 minutes):
 //   build/bench/fem_bench --benchmark_filter=SchurSpectrum --benchmark_counters_tabular=true
 #include "model/fem/fibres.h"
 #include "model/fem/land_benchmark.h"
@@ -223,7 +224,7 @@ void BM_Lv3dGmresIterationBySize(benchmark::State& st) {
   const double matvec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / reps;
   // The same product row-major (GMRES's, solver.cpp): a kernel whose work is exactly linear in the
   // nonzeros, so its time per nonzero against size is this machine's memory hierarchy alone
-  // (docs/models.md s.4.8, "What a linear kernel costs on this machine").
+  // (experiments/lv3d-solver/NOTES.md, "What a linear kernel costs on this machine").
   const Eigen::SparseMatrix<double, Eigen::RowMajor, int> Kr = K;
   const auto t1 = std::chrono::steady_clock::now();
   for (int r = 0; r < reps; ++r) {
@@ -281,13 +282,13 @@ int gmres_iterations_on_spectrum(const Eigen::VectorXd& lambda, double tol) {
 }
 
 // The spectrum of the pressure Schur complement of Lv3dTangent against its approximation in the
-// iterative solver, where GMRES's iterations grow with the mesh (docs/models.md s.4.8, "Where the
-// iterations grow"). The exact S = B A^-1 B^T - C (A^-1 by UMFPACK, one solve per pressure
-// unknown; A is symmetric in the unloaded reference), and Shat either SIMPLE's diagonal
+// iterative solver, where GMRES's iterations grow with the mesh (experiments/lv3d-solver/NOTES.md,
+// "Where the iterations grow"). The exact S = B A^-1 B^T - C (A^-1 by UMFPACK, one solve per
+// pressure unknown; A is symmetric in the unloaded reference), and Shat either SIMPLE's diagonal
 // diag(B |diag A|^-1 B^T) - diag C (argument 3 = 0, the solver's choice with the stabilisation) or
 // diag(B |diag A|^-1 B^T) - C, the stabilisation's Laplacian kept whole (1), or, on the tangent with
 // the grad-div term (grad_div 1), the solver's kMass approximation Mechanics::schur_mass() - C (2;
-// docs/models.md s.4.4, "Grad-div term"). Dense generalized
+// docs/solvers.md s.3). Dense generalized
 // eigenproblem S v = lambda Shat v (Eigen), so up to ~5 000 pressure unknowns. Counters: the
 // extreme eigenvalues; how many lie below 0.3 and above 3; the GMRES iterations that the spectrum
 // implies to 1e-2 and 1e-8 (gmres_iterations_on_spectrum), and to 1e-2 with the 20 largest
@@ -379,11 +380,11 @@ BENCHMARK(BM_Lv3dGmresIterationBySize)
     ->ArgsProduct({{5}, {30}, {60}, {0, 1}, {0}})->ArgsProduct({{6}, {36}, {72}, {0, 1}, {0}})
     ->ArgsProduct({{8}, {48}, {96}, {0, 1}, {0}})
     // One direction refined at a time from the fine mesh (3, 18, 36): around, rings, layers
-    // (docs/models.md s.4.8, "Where the iterations grow").
+    // (experiments/lv3d-solver/NOTES.md, "Where the iterations grow").
     ->Args({3, 18, 72, 1, 0})->Args({3, 36, 36, 1, 0})->Args({6, 18, 36, 1, 0})
     ->Args({3, 18, 18, 1, 0})->Args({5, 30, 30, 1, 0})->Args({5, 30, 36, 1, 0})
     // With the grad-div term (beta 1) and the mass Schur approximation, every size and the
-    // refinements along the wall (docs/models.md s.4.4, "Grad-div term").
+    // refinements along the wall (docs/solvers.md s.3).
     ->ArgsProduct({{1}, {6}, {12}, {1}, {1}})->ArgsProduct({{2}, {12}, {24}, {1}, {1}})
     ->ArgsProduct({{3}, {18}, {36}, {1}, {1}})->ArgsProduct({{4}, {24}, {48}, {1}, {1}})
     ->ArgsProduct({{5}, {30}, {60}, {1}, {1}})->ArgsProduct({{6}, {36}, {72}, {1}, {1}})

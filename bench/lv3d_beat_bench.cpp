@@ -16,14 +16,14 @@
 // 1021 Newton iterations, EF 40.92 % (growth 1.80 from (4, 24, 48)).
 // Idle machine, 15:09-15:11 UTC, carried: 0.77 / 11.7 / 58.2 s on 1 thread, 0.79 / 10.8 / 50.0 s
 // on 2. The fine beat meets the target on this machine (50.2 and 58.2 s on 1 thread in two runs).
-// docs/models.md s.4.8, "Cost".
+// experiments/lv3d-solver/NOTES.md.
 //   build/bench/lv3d_beat_bench --benchmark_filter='LinearBySize/.*/1/1/[01]$'
 // The iterative solver on the same linear tetrahedra (BM_Lv3dBeatLinearBySizeAmg, sparse Schur
 // approximation; 1 thread, CPU time, 2026-11-27 16:23-17:07 UTC, second core partly busy):
 // 584 / 3468 / 10 384 unknowns: GMRES to 1e-10 15.9 / 247 / 1517 s, to 1e-2 5.29 / 63.1 / 372 s;
 // 536 / 620 / 659 and 744 / 783 / 844 Newton iterations, EF as UMFPACK's to four digits. 5-30x
 // UMFPACK's time, growth unknowns^1.54 / 1.65 (1e-10) and 1.39 / 1.62 (1e-2): the GMRES iterations
-// grow with the mesh (docs/models.md s.4.8, "Cost").
+// grow with the mesh (experiments/lv3d-solver/NOTES.md).
 //   build/bench/lv3d_beat_bench --benchmark_filter='LinearBySizeAmg/.*/1/'
 // With the pressure stabilisation (BM_Lv3dBeatLinearStabilized, pressure_stabilization 0.1,
 // SIMPLE's diagonal Schur approximation; 1 thread, CPU time, 2026-11-27 19:25-20:20 UTC, second core
@@ -43,21 +43,22 @@
 // iterations, 193 set-ups (growth ^1.37 against 1.76 without). Again on 2026-11-28 (1 thread,
 // 01:18-02:15 UTC): fine 103 s, (4, 24, 48) 315 s, (5, 30, 60) 784 s (22 545 GMRES iterations, 199
 // set-ups, EF 40.8616 %), (6, 36, 72) 1458 s (26 902, 204, 40.8174 %); growth ^1.40 / 1.45 / 1.20,
-// ^1.36 overall, of which ~0.3 the GMRES iterations per beat (docs/models.md s.4.8, "Where the
-// iterations grow"). docs/models.md s.4.8, "Cost".
+// ^1.36 overall, of which ~0.3 the GMRES iterations per beat (experiments/lv3d-solver/NOTES.md,
+// "Where the iterations grow").
 //   build/bench/lv3d_beat_bench --benchmark_filter='LinearStabilized/.*/1/(1/10|2/2)/10/'
 // With the grad-div term and the coarse correction on a grid that follows the mesh (solver 6;
 // 1 thread, idle, 2026-11-28 17:30-17:55 UTC), 3 468 / 10 384 / 23 060 / 43 224 / 72 604 unknowns:
 // 11.9 / 57.0 / 158 / 364 / 661 s, 4.77 / 4.71 / 4.93 / 5.10 / 5.42 GMRES iterations per Newton
 // iteration, 75 / 85 / 91 / 98 / 101 set-ups; growth unknowns^1.26 from the fine mesh to
-// (6, 36, 72), ^1.15 between the two largest (docs/models.md s.4.8, "The coarse correction with
-// the grad-div term").
+// (6, 36, 72), ^1.15 between the two largest (experiments/lv3d-solver/NOTES.md, "The coarse
+// correction with the grad-div term").
 //   build/bench/lv3d_beat_bench --benchmark_filter='LinearStabilized/.*/1/6/2/10/'
 // Earlier the same day (before the carried factors): the fine mesh took 84.9 s on the
 // machine of 2026-11-27 (AMD EPYC, 2.45 GHz, idle), where the code before that day's Newton changes
 // (pattern-only UMFPACK analysis, w1 frozen with the factors, residual-only stress, Broyden
-// updates; docs/models.md s.4.8) took 140 s: 1.65x. The same old code took 79.7 s on the machine of
-// 2026-11-26, so machines differ by 1.75x; on this one the target was missed by 1.4x. The quadratic
+// updates; experiments/lv3d-solver/NOTES.md) took 140 s: 1.65x. The same old code took 79.7 s on
+// the machine of 2026-11-26, so machines differ by 1.75x; on this one the target was missed by
+// 1.4x. The quadratic
 // ones take about 1400 s extrapolated (BM_Lv3dBeatBySize).
 // 2026-11-27, 1 thread, idle machine, new code (Broyden / plain chord) against the old code:
 // 396 / 3312 / 11 340 tets: 1.45 / 21.6 / 84.9 s (chord 2.01 / 23.2 / 93.8 s; old 2.55 / 29.0 /
@@ -85,17 +86,18 @@
 // UMFPACK against the iterative solver (model/fem/solver.h), inflation + 10 steps, CPU time (load
 // average ~10: wall 4-7x CPU): coarse 1 thread UMFPACK 3.25 s, AMG 8.93 s; 2 threads 7.51 s and
 // 7.11 s; medium 1 thread UMFPACK 37.9 s, AMG 147 s (growth exponents 1.29 and 1.47 in the
-// unknowns). The fine mesh was not run. docs/models.md s.4.8 discusses why AMG loses here.
+// unknowns). The fine mesh was not run. experiments/lv3d-solver/NOTES.md discusses why AMG loses
+// here.
 //   build/bench/lv3d_beat_bench --benchmark_filter='TenSteps/(0/[12]/[12]|1/1/[12])/'
 // A whole beat against mesh size with UMFPACK (BM_Lv3dBeatBySize, idle machine, 2026-11-26):
 // 396 / 918 / 1656 / 3312 tets (2639 / 6005 / 10739 / 17802 unknowns): 20.1 / 57.3 / 111 / 283 s
 // on 1 thread, 19.1 / 54.1 / 105 / 273 s on 2; time ~ unknowns^1.39; fine extrapolated ~1400 s.
-// SparseLU: 23.8 s and 212 s for the first two (exponent 2.7). docs/models.md s.4.8.
+// SparseLU: 23.8 s and 212 s for the first two (exponent 2.7). experiments/lv3d-solver/NOTES.md.
 //   build/bench/lv3d_beat_bench --benchmark_filter='BySize/.*/1/iterations'
 // The iterative solver as an inexact Newton method (BM_Lv3dBeatBySizeAmg, linear_tolerance
 // 10^-k; 2026-11-26, second core busy): coarse 111 / 73.9 / 55.9 / 42.2 s CPU at 1e-10 / 1e-6 /
 // 1e-4 / 1e-2 (848 / 848 / 870 / 1002 Newton iterations, the same EF); at 1e-2, 918 tets 133 s and
-// 1656 tets 371 s: time ~ unknowns^1.55, still 2-3x UMFPACK. docs/models.md s.4.8.
+// 1656 tets 371 s: time ~ unknowns^1.55, still 2-3x UMFPACK. experiments/lv3d-solver/NOTES.md.
 //   build/bench/lv3d_beat_bench --benchmark_filter='BySizeAmg'
 // Without UMFPACK's iterative refinement (model/fem/solver.cpp, UMFPACK_IRSTEP 0; second core busy):
 // 396 / 918 / 1656 / 3312 tets 17.0 / 46.4 / 104 / 276 s on 1 thread (918 tets: 70.2 s with the
@@ -171,8 +173,8 @@ void BM_Lv3dBeatBySize(benchmark::State& st) {
 }
 // The same with the iterative solver (GMRES + BoomerAMG) as an inexact Newton method: arguments
 // (n_transmural, n_longitudinal, n_circumferential, threads, k, beta) with linear_tolerance 10^-k
-// and grad_div beta (0 or 1; with 1 the mass Schur approximation, docs/models.md s.4.8, "The
-// grad-div term in the beat").
+// and grad_div beta (0 or 1; with 1 the mass Schur approximation, experiments/lv3d-solver/NOTES.md,
+// "The grad-div term in the beat").
 void BM_Lv3dBeatBySizeAmg(benchmark::State& st) {
   LeftVentricle3DOptions o;
   o.n_transmural = static_cast<int>(st.range(0));
@@ -223,12 +225,15 @@ void BM_Lv3dBeatLinearBySizeAmg(benchmark::State& st) {
 // pressure_stabilization alpha; docs/models.md s.4.4): arguments (n_transmural, n_longitudinal,
 // n_circumferential, threads, solver 1 UMFPACK (factors carried), 2 GMRES + BoomerAMG with
 // SIMPLE's diagonal Schur approximation or 3 the same with the coarse correction of the wall modes
-// (coarse_correction; docs/models.md s.4.8, "The coarse correction in the beat"), 4 GMRES + BoomerAMG
-// with the grad-div term (grad_div 1) and the mass Schur approximation (docs/models.md s.4.8,
-// "The grad-div term in the beat") or 5 the same with an exact displacement solve instead of the
-// V-cycle (exact_displacement_solve, a diagnostic: docs/models.md s.4.8, "Where the beat's
-// iterations grow") or 6 the grad-div term with the coarse correction on a grid that follows the
-// mesh (coarse_correction; docs/models.md s.4.8, "The coarse correction with the grad-div term"),
+// (coarse_correction; experiments/lv3d-solver/NOTES.md, "The coarse correction in the beat"), 4
+// GMRES + BoomerAMG
+// with the grad-div term (grad_div 1) and the mass Schur approximation
+// (experiments/lv3d-solver/NOTES.md, "The grad-div term in the beat") or 5 the same with an exact
+// displacement solve instead of the
+// V-cycle (exact_displacement_solve, a diagnostic: experiments/lv3d-solver/NOTES.md, "Where the
+// beat's iterations grow") or 6 the grad-div term with the coarse correction on a grid that follows
+// the
+// mesh (coarse_correction; docs/solvers.md s.4-5),
 // k: linear_tolerance 10^-k, 100 alpha).
 void BM_Lv3dBeatLinearStabilized(benchmark::State& st) {
   LeftVentricle3DOptions o = linear_mesh(st);

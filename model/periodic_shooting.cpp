@@ -433,7 +433,7 @@ ShootingResult solve_periodic_state(const VectorXd& x0, const BeatMap& beat,
           // step damped; next to a nearly neutral arterial mode (R_d C_d ~ 1e4 s) by a valve
           // kink, Armijo accepted ~3 % of each step and atrium-sphere census points 987 and
           // 2865 crept to 450 and 753 beats; re-armed they converge in 111 and 123
-          // (docs/models.md s.2.2).
+          // (experiments/lumped-census/NOTES.md).
           if (watching == 0 && ls > 0 && rt.norm() > 0.9 * r.norm()) free_step = true;
           x = xt;
           base = std::move(trial);

@@ -5,7 +5,7 @@
 // (material.h), viscosity, epicardial and basal spring-dashpots, and a time-dependent fibre active
 // stress tau(t) and endocardial pressure p(t) over one beat, t in [0, 1] s. Outputs: the
 // displacement of the material points p0 = (0.025, 0.03, 0) m and p1 = (0, 0.03, 0) m.
-// Specification with sources: docs/notes/arostica-2025-elastodynamics-benchmark.md; what our
+// Specification with sources: experiments/arostica-benchmark/specification.md; what our
 // implementation does and measures: docs/models.md s.4.9. Units: SI.
 #pragma once
 

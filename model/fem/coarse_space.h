@@ -1,5 +1,5 @@
 // Coarse space of the two-level preconditioner of the iterative solver (SparseSolver::
-// set_coarse_space; docs/models.md s.4.4, "Coarse correction"): smooth functions of the truncated
+// set_coarse_space; docs/solvers.md s.4): smooth functions of the truncated
 // ellipsoid's coordinates that span the thin wall's shell modes, the upper end of the spectrum of
 // the preconditioned Schur complement (bench/fem_bench BM_Lv3dSchurSpectrum).
 #pragma once
@@ -24,7 +24,7 @@ struct EllipsoidCoarseOptions {
   std::string validate() const;  // empty when valid
 };
 
-// Which coarse grid ellipsoid_coarse_options() gives (docs/models.md s.4.4, "Coarse correction"):
+// Which coarse grid ellipsoid_coarse_options() gives (docs/solvers.md s.4):
 // - kWallModes: at most 3 x 5 x 8 nodes whatever the mesh, displacement and pressure columns: the
 //   smooth shell modes on which SIMPLE's diagonal is furthest from the true Schur complement
 //   (without the grad-div term).

@@ -2,7 +2,7 @@
 // consistent mass matrix, a viscous pseudo-potential, Robin spring-dashpot boundaries and
 // time-dependent loads (follower pressure, fibre active stress), as in the cardiac elastodynamics
 // benchmark of Arostica et al. 2025 (CMAME 435:117485, doi:10.1016/j.cma.2024.117485;
-// docs/notes/arostica-2025-elastodynamics-benchmark.md s.2, docs/models.md s.4.9):
+// experiments/arostica-benchmark/specification.md s.2, docs/models.md s.4.9):
 //
 //   rho u'' - Div(F (S(E) + S_visc + tau f0 (x) f0)) = 0 in the reference domain,
 //   S_visc = eta dE/dt (the pseudo-potential eta/2 tr(dE/dt^2)),

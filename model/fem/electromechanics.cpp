@@ -650,7 +650,7 @@ int LeftVentricle3D::Impl::step(const Model& m, const Unknowns& xo, double t0, d
     // direction through the steps taken since the factorisation (Kelley 1995, Iterative Methods
     // for Linear and Nonlinear Equations, SIAM, s.7.3, alg. brsol; Sherman-Morrison form), in
     // the scaled inner product above. The chord's linear contraction becomes superlinear: fewer
-    // residual assemblies and solves per step (docs/models.md s.4.8, "Cost"). A denominator near
+    // residual assemblies and solves per step (docs/solvers.md s.1). A denominator near
     // zero drops the history (plain chord direction).
     if (!factors_fresh && options.broyden && !steps.empty()) {
       Eigen::VectorXd z = d;

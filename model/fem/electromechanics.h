@@ -104,12 +104,13 @@ struct LeftVentricle3DOptions {
   double bulk_modulus = 0.0;  // [Pa]; 0: incompressible (element_order 2 only)
   // Brezzi-Pitkaranta pressure stabilisation alpha of the linear tetrahedra (element_order 1 only;
   // MechanicsOptions::pressure_stabilization): 0 (default) none; with it the iterative solver's
-  // GMRES iterations stop growing with the mesh (docs/models.md s.4.4 and s.4.8, "Cost").
+  // GMRES iterations stop growing with the mesh (docs/models.md s.4.4, docs/solvers.md s.3).
   double pressure_stabilization = 0.0;
   // Grad-div term beta (MechanicsOptions::grad_div): 0 (default) none; with it the iterative
   // solver's Schur complement approximation is the pressure mass over the stiffness, which holds on
   // finer meshes, but it changes the discretisation (EF +0.1 to +0.4 points on the linear meshes;
-  // docs/models.md s.4.4, "Grad-div term"; s.4.8, "The grad-div term in the beat").
+  // docs/models.md s.4.4, "Grad-div term"; experiments/lv3d-solver/NOTES.md, "The grad-div term in
+  // the beat").
   double grad_div = 0.0;
   int n_transmural = 1;
   int n_longitudinal = 6;      // a multiple of 3 puts node rings on the AHA levels
@@ -130,11 +131,11 @@ struct LeftVentricle3DOptions {
   double newton_tolerance = 1e-8;    // on the scaled residual rows (see electromechanics.cpp)
   int newton_max_iterations = 20;
   // Broyden updates of the chord iterations between factorisations (electromechanics.cpp, step;
-  // docs/models.md s.4.8): false gives the plain chord iteration.
+  // docs/solvers.md s.1): false gives the plain chord iteration.
   bool broyden = true;
   // Within one run() the factors of the last step's tangent start the next step's chord
   // iterations (refactorised when they contract too slowly, as within a step), and the first
-  // iterate is extrapolated from the last two steps (docs/models.md s.4.8). advance() always
+  // iterate is extrapolated from the last two steps (docs/solvers.md s.1). advance() always
   // starts from fresh factors, so it stays a pure function of (state, theta, t_end); run() is a
   // pure function of theta either way. false: a factorisation at every step's first iterate.
   bool carry_factors = true;
@@ -147,26 +148,26 @@ struct LeftVentricle3DOptions {
   // Relative tolerance of the iterative solver's GMRES (linear_solver kAmg; ignored by the direct
   // solvers): an inexact Newton method (Dembo, Eisenstat & Steihaug 1982) when it is above the
   // rounding level. Newton's own test (newton_tolerance on the scaled residual rows) still decides
-  // convergence, so a looser linear tolerance costs iterations, not accuracy
-  // (docs/models.md s.4.8, "Cost").
+  // convergence, so a looser linear tolerance costs iterations, not accuracy (docs/solvers.md s.3).
   double linear_tolerance = 1e-10;
   // Coarse correction of the iterative solver (needs linear_solver kAmg): hats in the ellipsoid's
-  // coordinates (coarse_space.h; docs/models.md s.4.4, "Coarse correction"). With grad_div > 0 the
+  // coordinates (coarse_space.h; docs/solvers.md s.4). With grad_div > 0 the
   // grid follows the mesh (every other node along and around the wall; displacements only,
   // CoarseGrid::kHalfMesh): GMRES then takes 4.7-5.4 iterations per Newton iteration from 3 468
   // to 72 604 unknowns, and the beat grows as unknowns^1.26 from 10 384 to 72 604 (^1.36 without;
-  // docs/models.md s.4.8, "The coarse correction with the grad-div term"). Without the term, the fixed 3 x 5 x 8
-  // grid of the wall's shell modes (CoarseGrid::kWallModes), which gains 6-12 % up to 23 060
-  // unknowns and nothing at 43 224 (s.4.8, "The coarse correction in the beat"). Off by default
-  // here; a config that leaves the key out gets it on with linear_solver amg, grad_div > 0 and
+  // experiments/lv3d-solver/NOTES.md, "The coarse correction with the grad-div term"). Without the
+  // term, the fixed 3 x 5 x 8 grid of the wall's shell modes (CoarseGrid::kWallModes), which gains
+  // 6-12 % up to 23 060 unknowns and nothing at 43 224 (experiments/lv3d-solver/NOTES.md, "The
+  // coarse correction in the beat"). Off by default here; a config that leaves the key out gets it
+  // on with linear_solver amg, grad_div > 0 and
   // element_order 1 (read_lv3d_options, register.h).
   bool coarse_correction = false;
   // A diagnostic of the iterative solver (needs linear_solver kAmg): the displacement block solved
   // exactly (a sparse LU per set-up) instead of by a V-cycle (IterativeOptions::Displacement::kExact),
-  // so that GMRES's iterations measure the Schur complement approximation alone (docs/models.md
-  // s.4.8, "Where the beat's iterations grow"). Slow on large meshes; off by default. With UMFPACK
-  // (when built in) its runs on different thread counts may differ in the last bits, as
-  // linear_solver umfpack's do (electromechanics.cpp, step).
+  // so that GMRES's iterations measure the Schur complement approximation alone (docs/solvers.md
+  // s.3; experiments/lv3d-solver/NOTES.md, "Where the beat's iterations grow"). Slow on large
+  // meshes; off by default. With UMFPACK (when built in) its runs on different thread counts may
+  // differ in the last bits, as linear_solver umfpack's do (electromechanics.cpp, step).
   bool exact_displacement_solve = false;
 
   // Empty when valid, else a message starting with the offending field's name.

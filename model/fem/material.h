@@ -107,8 +107,8 @@ class MooneyRivlin final : public Material {
 };
 
 // Modified Holzapfel-Ogden law of the cardiac elastodynamics benchmark (Arostica et al. 2025,
-// CMAME 435:117485, doi:10.1016/j.cma.2024.117485, Benchmark 1; docs/notes/
-// arostica-2025-elastodynamics-benchmark.md s.2):
+// CMAME 435:117485, doi:10.1016/j.cma.2024.117485, Benchmark 1;
+// experiments/arostica-benchmark/specification.md s.2):
 //   W = a/(2b) [exp(b (I1bar - 3)) - 1]
 //     + sum_{i=f,s} a_i/(2 b_i) chi(I4i) [exp(b_i (I4i - 1)^2) - 1]
 //     + a_fs/(2 b_fs) [exp(b_fs I8fs^2) - 1]

@@ -67,10 +67,13 @@ std::string MechanicsOptions::validate() const {
 IterativeOptions iterative_options_for(const MechanicsOptions& o) {
   IterativeOptions io;
   // With the stabilisation the Schur complement is bounded below by tau int grad p . grad q on
-  // the spurious modes too, and SIMPLE's diagonal is the better approximation (docs/models.md s.4.4).
+  // the spurious modes too, and SIMPLE's diagonal is the better approximation (docs/solvers.md
+  // s.3).
   // One aggressively coarsened level halves the displacement hierarchy and keeps its size nearly in
   // proportion to the mesh; each iteration is cheaper, and the beat 12-35 % faster although it takes
-  // 20-30 % more of them (bench/fem_bench BM_Lv3dGmresIterationBySize, docs/models.md s.4.8, "Cost").
+  // 20-30 % more of them (bench/fem_bench BM_Lv3dGmresIterationBySize,
+  // experiments/lv3d-solver/NOTES.md, "Where the time per iteration goes, and aggressive
+  // coarsening").
   if (o.pressure_stabilization > 0) {
     io.schur = IterativeOptions::Schur::kDiagonal;
     io.aggressive_levels = 1;

@@ -87,7 +87,7 @@ LeftVentricle3DOptions read_lv3d_options(const OptionReader& node) {
   o.linear_tolerance = node.number("linear_tolerance", o.linear_tolerance);
   // Default on for the scalable set-up (linear_solver amg with the grad-div term on linear
   // tetrahedra), where its grid follows the mesh and the beat is 14-37 % faster at the same EF
-  // (docs/models.md s.4.8, "The coarse correction with the grad-div term"); off otherwise.
+  // (docs/solvers.md s.4-5); off otherwise.
   o.coarse_correction = node.boolean(
       "coarse_correction", o.coarse_correction || (o.linear_solver == LinearSolver::kAmg && o.grad_div > 0 &&
                                                    o.element_order == 1));

@@ -21,7 +21,7 @@ void register_fem_models(ModelRegistry& registry);
 //   activation: synchronous | apex_distance,  conduction_velocity: 0.6 m/s
 //   linear_solver: sparselu (default: the same bits in every thread) | auto | umfpack | amg (GMRES +
 //   BoomerAMG block preconditioner, solver.h; slower than umfpack on the bundled meshes,
-//   docs/models.md s.4.8 "Cost")
+//   docs/solvers.md s.5)
 // Errors go through the reader (file:line:column in app/).
 LeftVentricle3DOptions read_lv3d_options(const OptionReader& numerics);
 

@@ -110,7 +110,8 @@ class Umfpack {
     control_[UMFPACK_ORDERING] = UMFPACK_ORDERING_METIS;
     // No iterative refinement (UMFPACK's default is up to 2 steps, each a residual and another pair
     // of triangular solves): the callers are Newton iterations whose own residual test decides, and
-    // the refinement was the largest single cost of a heartbeat (docs/models.md s.4.8, "Cost").
+    // the refinement was the largest single cost of a heartbeat (experiments/lv3d-solver/NOTES.md,
+    // 2026-11-26).
     control_[UMFPACK_IRSTEP] = 0;
   }
   ~Umfpack() {
@@ -336,7 +337,7 @@ class BoomerAmg {
 
 // The factors of the coarse matrix K_c = P^T K P (SparseSolver::set_coarse_space). On lv-3d's
 // displacement-only grid (CoarseGrid::kHalfMesh) K_c is symmetric positive definite (measured
-// through the beat, docs/models.md s.4.4). There a sparse LDL^T (Eigen's SimplicialLDLT, AMD on the
+// through the beat, docs/solvers.md s.4). There a sparse LDL^T (Eigen's SimplicialLDLT, AMD on the
 // symmetric pattern) halves the factors of SparseLU's LU (COLAMD) and their cost: on K_c of the
 // (6, 36, 72) mesh (5 841 unknowns) 1.69 M nonzeros in L against 3.50 M in each of L and U,
 // factorisation 0.33 s against 0.71 s, a solve 4.7 ms against 8.7 ms. Any other K_c goes to
@@ -404,7 +405,8 @@ struct SparseSolver::Impl {
   // through its augmented-Lagrangian form T K with T = [I g B^T W^-1; 0 I] (factorize()).
   int n_u = -1;
   // The matrix of the last factorize(), row-major: GMRES's products with it gather along rows
-  // (a column-major product scatters, and was four fifths of GMRES's own work; docs/models.md s.4.8).
+  // (a column-major product scatters, and was four fifths of GMRES's own work;
+  // experiments/lv3d-solver/NOTES.md, 2026-11-29).
   RowMatrix K;
   RowMatrix Bt;               // K(0:n_u, n_u:n)
   // With augmentation g > 0 only (empty otherwise, where T = I and B_g^T = B^T):
@@ -562,7 +564,7 @@ bool SparseSolver::factorize(const SparseMatrixInt& A) {
     // With augmentation g > 0 the preconditioner is built on the augmented Lagrangian form T K
     // (Benzi & Olshanskii 2006, SIAM J. Sci. Comput. 28:2095; Fortin & Glowinski 1983), whose block
     // A_g = A + g B^T W^-1 B stiffens the dilatations; M = P^-1 T with P ~ T K is then a right
-    // preconditioner of K itself. Measured (docs/models.md s.4.4): g = 1 cuts GMRES iterations by
+    // preconditioner of K itself. Measured (docs/solvers.md s.3): g = 1 cuts GMRES iterations by
     // 2-5x, but B^T W^-1 B couples the second ring of P2 nodes and has ~7x the nonzeros of A (9.3M
     // against 1.3M on the medium lv-3d mesh), so each V-cycle costs more than it saves: default 0.
     const double gam = iterative_.augmentation;
@@ -592,7 +594,7 @@ bool SparseSolver::factorize(const SparseMatrixInt& A) {
         // the divergence, as the Stokes operator does, so B A^-1 B^T is spectrally the pressure mass
         // over the stiffness (Elman, Silvester & Wathen 2014, s.9.2; Benzi & Olshanskii 2006), and
         // -C adds the stabilisation's Laplacian kept whole. Measured on the unloaded stabilised
-        // lv-3d tangent (bench/fem_bench BM_Lv3dSchurSpectrum, docs/models.md s.4.4): the true Schur
+        // lv-3d tangent (bench/fem_bench BM_Lv3dSchurSpectrum, docs/solvers.md s.3): the true Schur
         // complement against it has its eigenvalues in [0.69, 1.97] / [0.66, 1.98] on the medium /
         // fine mesh, against [0.27, 202] / [0.19, 367] for SIMPLE's diagonal without the term.
         if (m.schur_mass.rows() != np || m.schur_mass.cols() != np) return false;
@@ -603,7 +605,7 @@ bool SparseSolver::factorize(const SparseMatrixInt& A) {
         // stable, so pressure modes q with B^T q ~ 0 make the true Schur complement B A^-1 B^T - C
         // nearly as small as the penalty -C = M_p / kappa on them (ratio kappa / mu ~ 1e3-1e4),
         // which no diagonal represents; B D^-1 B^T vanishes on the same modes. Measured on tangents
-        // of the linear lv-3d beat (docs/models.md s.4.4): GMRES to 1e-8 in 80-150 iterations
+        // of the linear lv-3d beat (docs/solvers.md s.3): GMRES to 1e-8 in 80-150 iterations
         // against 290-760 with the diagonal. On Taylor-Hood (P2-P1) its iterations grow faster and
         // its wider stencil costs more (Land problem 2 tangent, K = 1 / 2 / 3: 42 / 69 / 97
         // iterations against 51 / 69 / 76, 0.79 / 1.11 / 1.41x the time), so kAuto keeps the

@@ -1,4 +1,4 @@
-// Sparse linear solvers for the Newton systems of the mechanics (docs/models.md s.4.4):
+// Sparse linear solvers for the Newton systems of the mechanics (docs/solvers.md):
 //  - direct: UMFPACK (SuiteSparse) when sigmaheart was built with it, Eigen's SparseLU otherwise.
 //    Symbolic analysis once per pattern, numeric factorisation per factorize() (the pattern of the
 //    mechanics tangent never changes).
@@ -38,7 +38,7 @@ struct IterativeOptions {
   // diagonal (SIMPLE), which misses the spurious pressure modes of P1-P1 elements (GMRES to 1e-8 then
   // takes 290-760 iterations on the linear lv-3d tangents against 80-150); kAuto (default) kSparse
   // for equal-order elements (n_u = 3 n_p: every node carries a pressure) and kDiagonal otherwise
-  // (Taylor-Hood, where the sparse form costs more on the larger meshes; docs/models.md s.4.4).
+  // (Taylor-Hood, where the sparse form costs more on the larger meshes; docs/solvers.md s.3).
   // kMass: S^ = M_w - C with M_w the pressure mass over the elements' stiffness that the caller
   // gives (set_schur_mass; Mechanics::schur_mass with the grad-div term), applied the same way;
   // with the grad-div term the true Schur complement is spectrally that matrix, whatever the mesh.
@@ -50,15 +50,16 @@ struct IterativeOptions {
   // coarsening", Numer. Linear Algebra Appl. 17:453). 0 (default): none. 1 halves the hierarchy of
   // the stabilised linear lv-3d tangents and nearly stops it growing faster than the mesh, at the
   // same GMRES iterations on the unloaded tangent and 20-30 % more in the beat, each cheaper
-  // (docs/models.md s.4.8, "Cost"); iterative_options_for() sets it there.
+  // (experiments/lv3d-solver/NOTES.md, "Where the time per iteration goes, and aggressive
+  // coarsening"); iterative_options_for() sets it there.
   int aggressive_levels = 0;
   // The displacement block's solve inside the block preconditioner: kVCycle (default) one BoomerAMG
   // V-cycle on it; kExact a sparse LU of it (UMFPACK when built in, else SparseLU), refactorised at
   // every set-up. kExact is a diagnostic: GMRES's iterations then depend on the Schur complement
   // approximation alone (the block-triangular preconditioned saddle point has the eigenvalues of
   // Shat^-1 S besides ones; Elman, Silvester & Wathen 2014, s.9.2), so it tells the approximation's
-  // growth with the mesh from the V-cycle's (docs/models.md s.4.8, "Where the beat's iterations
-  // grow"). It costs a factorisation per set-up and triangular solves per iteration.
+  // growth with the mesh from the V-cycle's (experiments/lv3d-solver/NOTES.md, "Where the beat's
+  // iterations grow"). It costs a factorisation per set-up and triangular solves per iteration.
   enum class Displacement { kVCycle, kExact };
   Displacement displacement = Displacement::kVCycle;
   std::string validate() const;       // empty when valid
@@ -98,7 +99,7 @@ class SparseSolver {
   // Dirichlet unknowns (identity rows) are ignored, and so are its empty columns. An empty P (the
   // default) removes the correction. factorize() fails when P's row count is not the matrix's.
   // K_c is factorised sparse (SparseLU: the same bits with any thread count), so the coarse space
-  // may grow with the mesh (docs/models.md s.4.4, "Coarse correction").
+  // may grow with the mesh (docs/solvers.md s.4).
   void set_coarse_space(Eigen::SparseMatrix<double, Eigen::ColMajor, int> P);
 
   // The weighted pressure mass M_w (n_p x n_p, symmetric positive semi-definite) of the Schur

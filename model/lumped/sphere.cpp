@@ -300,10 +300,11 @@ ParameterSpace LumpedSphere::default_parameters(Atrium atrium) {
       p.push_back(Parameter{name, unit, nominal, lo, hi, doc, family, 0});
     };
     // Bounds: wide (elastances 0.0075-7.5 mmHg/mL, R_pv up to 7.5 mmHg s/mL). The 4096-point
-    // census finds 2 points whose periodic state the shooting reaches only after 450 and 753
+    // census found 2 points whose periodic state the shooting reached only after 450 and 753
     // beats (not within the default 400): a nearly neutral arterial mode next to a valve kink,
-    // not the atrium (docs/models.md s.2.2). Narrower atrium boxes moved the Sobol' points and
-    // did not remove such failures, so the box stays.
+    // not the atrium (experiments/lumped-census/NOTES.md; the re-armed full step of the shooting
+    // settles them). Narrower atrium boxes moved the Sobol' points and did not remove such
+    // failures, so the box stays.
     add("E_at_min", "Pa/m^3", 2.0e7, 1e6, 1e9, "passive atrial elastance, 0.15 mmHg/mL [KS06]",
         "elastance");
     add("E_at_max", "Pa/m^3", 5.33e7, 1e6, 1e9,

@@ -1,7 +1,7 @@
 // The Arostica et al. 2025 benchmark set-up (model/fem/arostica_benchmark.h): the tau(t) and p(t)
-// drivers against the converged reference table of docs/notes/arostica-2025-elastodynamics-
-// benchmark.md s.4, the fibre check values of its s.1.3, the geometry (base rings, the points),
-// the point probe, and the first 0.05 s of Step 1 on a coarse mesh against the teams' ensemble.
+// drivers against the converged reference table of experiments/arostica-benchmark/specification.md
+// s.4, the fibre check values of its s.1.3, the geometry (base rings, the points), the point
+// probe, and the first 0.05 s of Step 1 on a coarse mesh against the teams' ensemble.
 #include "model/fem/arostica_benchmark.h"
 #include "tests/model/fem/arostica_reference.h"
 

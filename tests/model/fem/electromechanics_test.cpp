@@ -390,7 +390,7 @@ TEST(LeftVentricle3D, BroydenChordGivesThePlainChordBeatInFewerNewtonIterations)
 
 // Within run(), the factors of the last step's tangent start the next step's chord iterations and
 // the first iterate is extrapolated from the last two steps (LeftVentricle3DOptions::carry_factors;
-// docs/models.md s.4.8, "Cost"). They change the path of the Newton solves, not their answer: the
+// docs/solvers.md s.1). They change the path of the Newton solves, not their answer: the
 // beat agrees with the one that refactorises at every step's start to the Newton tolerance, with
 // fewer factorisations and Newton iterations (coarse linear beat at dt 5 ms: 48 against 181
 // factorisations, 914 against 948 iterations). advance() does not carry anything from one call to

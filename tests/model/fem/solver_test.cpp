@@ -167,7 +167,7 @@ TEST(SparseSolver, AmgSolvesAnIndefiniteLandTangentToTheDirectSolution) {
     // The unaugmented count depends on the machine's rounding (restarted GMRES on an indefinite
     // block): 814 on the machine of the first measurement, 1650 on an AMD EPYC (2026-11-26), above
     // the default cap of 1000; the cap is raised here so that the test checks convergence and the
-    // ratio, not one machine's count (docs/models.md s.4.4).
+    // ratio, not one machine's count (docs/solvers.md s.3).
     io.max_iterations = 5000;
     SparseSolver amg(LinearSolver::kAmg, io);
     amg.set_saddle_point(sys.nu);
@@ -310,7 +310,7 @@ TEST(SparseSolver, GradDivTermMakesTheMassSchurApproximationHoldOnFinerMeshes) {
   const int(&with)[3] = c.with;
   const int(&without)[3] = c.without;
   // Measured (2026-11-28): with 20 / 23 / 25, without 35 / 45 / 56. The exact-solve model of the
-  // spectrum (docs/models.md s.4.4) puts the rest of the growth with the term in the V-cycle.
+  // spectrum (docs/solvers.md s.3) puts the rest of the growth with the term in the V-cycle.
   EXPECT_LT(with[2], 1.4 * with[0]);
   EXPECT_GT(without[2], 1.4 * without[0]);
   EXPECT_LT(with[2], 0.6 * without[2]);
@@ -332,7 +332,7 @@ TEST(SparseSolver, GradDivTermMakesTheMassSchurApproximationHoldOnFinerMeshes) {
 // unloaded tangents of K = 1 / 2 / 3 (584 to 10 384 unknowns; the same criterion as the test above:
 // K = 3 under 1.4x K = 1), where SIMPLE's diagonal without the term, with the same exact solve,
 // grows; and the solution is the direct one. So the growth of the V-cycle's counts in the test
-// above is the V-cycle's (docs/models.md s.4.8, "Where the beat's iterations grow").
+// above is the V-cycle's (experiments/lv3d-solver/NOTES.md, "Where the beat's iterations grow").
 TEST(SparseSolver, ExactDisplacementSolveShowsTheMassSchurApproximationIsMeshIndependent) {
   if (!linear_solver_available(LinearSolver::kAmg)) GTEST_SKIP() << "built without hypre";
   const GradDivCounts c = grad_div_counts("exact displacement solve", [](IterativeOptions& io, const Mechanics&, double) {
@@ -373,7 +373,7 @@ TEST(SparseSolver, ExactDisplacementSolveShowsTheMassSchurApproximationIsMeshInd
 // displacement solve does. The coarse correction on the grid that follows the mesh
 // (CoarseGrid::kHalfMesh, lv-3d's coarse_correction with grad_div) catches what the V-cycle
 // leaves: with it GMRES takes about as many iterations as with the exact solve, and lands on the
-// direct solution (docs/models.md s.4.4, "Coarse correction"; in the beat, s.4.8).
+// direct solution (docs/solvers.md s.4; in the beat, s.5).
 TEST(SparseSolver, HalfMeshCoarseCorrectionMakesTheVCycleAsGoodAsAnExactDisplacementSolve) {
   if (!linear_solver_available(LinearSolver::kAmg)) GTEST_SKIP() << "built without hypre";
   int plain[3], corrected[3], exact[3];
@@ -613,7 +613,7 @@ TEST(SparseSolver, CoarseCorrectionIsExactOnItsCoarseSpace) {
   EXPECT_GT(amg.iterative_stats().last_iterations, 1);
 }
 
-// The coarse correction of the wall modes (coarse_space.h, docs/models.md s.4.4) on the stabilised
+// The coarse correction of the wall modes (coarse_space.h, docs/solvers.md s.4) on the stabilised
 // linear tetrahedra at K = 3 (10 384 unknowns): the same solution in fewer GMRES iterations.
 TEST(SparseSolver, CoarseCorrectionOfTheWallModesCutsTheIterations) {
   if (!linear_solver_available(LinearSolver::kAmg)) GTEST_SKIP() << "built without hypre";

@@ -52,7 +52,7 @@ struct ThinShellCase {
   double dt = 5e-3;  // [s], both models
   int beats = 1;     // the last one is compared; 0: the passive inflation only (V3(0), Vl(0))
   // SparseLU (the default) for the fast test's bits; UMFPACK for the thin walls' larger meshes, whose
-  // SparseLU factorisation grows far faster (docs/models.md s.4.8, "Cost").
+  // SparseLU factorisation grows far faster (experiments/thin-shell/README.md).
   LinearSolver linear_solver = LinearSolver::kSparseLU;
 };
 

@@ -18,7 +18,8 @@ using testing::ThinShellCase;
 using testing::ThinShellComparison;
 
 // UMFPACK: SparseLU (the default, for the same bits on any thread count) factorises these meshes
-// far more slowly (its fill grows as unknowns^2.7 on the 3D tangents, docs/models.md s.4.8).
+// far more slowly (its fill grows as unknowns^2.7 on the 3D tangents,
+// experiments/lv3d-solver/NOTES.md).
 ThinShellCase study_case(double ratio, int longitudinal = 9, int circumferential = 24,
                          LinearSolver solver = LinearSolver::kUmfPack) {
   ThinShellCase c;
