@@ -78,10 +78,14 @@ AhaLabels aha_labels_in_frame(const Mesh& mesh, const Eigen::MatrixX3d& x, const
   if (ref.norm() < 1e-12) throw std::invalid_argument("aha_labels: reference direction is parallel to the axis");
   ref.normalize();
   const Eigen::Vector3d ref2 = f.axis.cross(ref);
+  // A centroid on a boundary (the apex fan's triangles bisect 30-deg cells at -75, 15, 105, 195
+  // deg) would be classified by round-off, differently for the same mesh in another frame (the
+  // simulator's, or landmarks read back by `observe`): h and phi are rounded to 1e-12 and 1e-9
+  // deg first, so such a face goes to the segment counter-clockwise of (or below) the boundary.
   auto classify = [&](const Eigen::Vector3d& p) {
-    const double h = (p - f.apex).dot(f.axis) / f.length;
+    const double h = std::round((p - f.apex).dot(f.axis) / f.length * 1e12) / 1e12;
     const Eigen::Vector3d d = p - f.centre;
-    const double phi = std::atan2(d.dot(ref2), d.dot(ref)) * 180.0 / std::numbers::pi;
+    const double phi = std::round(std::atan2(d.dot(ref2), d.dot(ref)) * 180.0 / std::numbers::pi * 1e9) / 1e9;
     return aha_segment(h, phi, 0.0);
   };
   auto centroid = [&](auto&& row, int n) {
