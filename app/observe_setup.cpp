@@ -43,7 +43,7 @@ void parse_files(const ConfigNode& node, const std::filesystem::path& base, Obse
   const std::string text = node.as<std::string>();
   if (text.find_first_of("*?") != std::string::npos) {
     s.files = expand_glob(node, base / text);
-    for (const auto& f : s.files) input_file(node, f, base, what);
+    for (const auto& f : s.files) input_file(node, f, {}, what);  // already relative to the working directory
     return;
   }
   const std::filesystem::path p = input_file(node, text, base, what);
@@ -52,7 +52,7 @@ void parse_files(const ConfigNode& node, const std::filesystem::path& base, Obse
     const io::PvdSeries series = io::read_pvd_series(p);
     s.files = series.files;
     s.file_times = series.times;
-    for (const auto& f : s.files) input_file(node, f, base, "mesh file of the .pvd");
+    for (const auto& f : s.files) input_file(node, f, {}, "mesh file of the .pvd");  // resolved against the .pvd
   } else {
     s.files.push_back(p);
   }
@@ -183,6 +183,7 @@ ObserveSetup parse_observe(const ConfigFile& file) {
     s.pressure_file = input_file(p.require_child("file"), p.require<std::string>("file"), base, "pressure trace (CSV)");
     s.pressure_column = p.optional<std::string>("column", "P_lv");
   }
+  if (!meshes) s.checks.jump_fraction = 0.5;  // slices move a segment's volume in steps (observers/volume_curves.h)
   if (const ConfigNode c = o["checks"]; c.defined()) {
     c.check_keys({"jump_fraction", "sum_tolerance"});
     s.checks.jump_fraction = c.optional<double>("jump_fraction", s.checks.jump_fraction);

@@ -23,8 +23,10 @@ struct VolumeCurves {
 
 struct VolumeCheckOptions {
   // A segment whose volume changes between consecutive frames by more than this fraction of its
-  // largest volume is a tracking failure (a normal beat at 25-30 frames changes a segment by at
-  // most ~15 % per frame: EF <= 75 % over >= 5 ejection frames).
+  // largest volume (or of the mean segment volume at ED, EDV/17, when larger) is a tracking
+  // failure: a normal beat at 25-30 frames changes a segment by at most ~15 % per frame (EF <= 75 %
+  // over >= 5 ejection frames). `observe` uses 0.5 for label images, whose 8-10 mm slices move a
+  // segment's volume in steps.
   double jump_fraction = 0.25;
   // |sum of the regional volumes - V_lv| / V_lv above this is reported as a finding (the two agree
   // exactly when the base ring is flat and normal to the axis: docs/models.md s.5).

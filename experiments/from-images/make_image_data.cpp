@@ -130,8 +130,8 @@ std::vector<std::uint8_t> voxelise(const std::vector<std::array<Eigen::Vector3d,
 // A point in `unit` (m: 0.001 steps, mm: 1 steps), rounded to 1 mm as a reader would click it.
 std::string point(const Eigen::Vector3d& p, double unit) {
   std::ostringstream s;
-  s << "[" << std::round(p.x() * 1e3) * 1e-3 / unit << ", " << std::round(p.y() * 1e3) * 1e-3 / unit << ", "
-    << std::round(p.z() * 1e3) * 1e-3 / unit << "]";
+  auto r = [&](double v) { return std::round(v * 1e3) * 1e-3 / unit + 0.0; };  // + 0.0: no "-0"
+  s << "[" << r(p.x()) << ", " << r(p.y()) << ", " << r(p.z()) << "]";
   return s.str();
 }
 
@@ -244,17 +244,17 @@ int main(int argc, char** argv) {
     for (int k = 0; k < frames; ++k) masks.push_back(voxelise(closed_cavity(e, x[static_cast<size_t>(k)], 4), g));
     app::io::write_label_image(out / "seg.nii.gz", g, masks, T / frames);
 
-    // Landmarks a reader would click on frame 0 (1 mm), the configs.
+    // Landmarks a reader would click on frame 0 (1 mm), the configs: the apex where the tracked
+    // mesh's apex node is (the material apex, as the simulator's), the ring, the RV insertion at
+    // phi = 0 (+x) at mid height.
     const Eigen::MatrixX3d& x0 = x[0];
-    Eigen::Vector3d apex = x0.row(0), c = Eigen::Vector3d::Zero();
-    double hmin = 1e9;
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
     for (int r : e.labels.base_ring) c += x0.row(r).transpose();
     c /= static_cast<double>(e.labels.base_ring.size());
-    for (Eigen::Index i = 0; i < x0.rows(); ++i)
-      if (label(i) == 1.0 && x0(i, 2) < hmin) {
-        hmin = x0(i, 2);
-        apex = x0.row(i);
-      }
+    Eigen::Index apex_node = 0;
+    for (Eigen::Index i = 0; i < x_ref.rows(); ++i)
+      if (label(i) == 1.0 && x_ref(i, 2) < x_ref(apex_node, 2)) apex_node = i;
+    const Eigen::Vector3d apex = x0.row(apex_node);
     double rmax = 0;
     for (int r : e.labels.base_ring) rmax = std::max(rmax, (x0.row(r).transpose() - c).head<2>().norm());
     const Eigen::Vector3d rv(c.x() + 0.9 * rmax, c.y(), 0.5 * (apex.z() + c.z()));

@@ -147,6 +147,32 @@ TEST(Observe, EverySurfaceFormatGivesTheLibrarysVolumes) {
   }
 }
 
+// A .pvd series named by a config given by a relative path: the .pvd is found beside the config,
+// its files beside the .pvd, its times kept; `validate` checks an observe config without simulator.
+TEST(Observe, ASeriesIsFoundRelativeToTheConfigAndValidated) {
+  REQUIRE_FORMATS();
+  const Surface s = ellipsoid_surface(4);
+  const auto dir = scratch_dir();
+  std::filesystem::create_directories(dir / "frames");
+  std::string pvd = "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\">\n<Collection>\n";
+  for (int k = 0; k < 4; ++k) {
+    write_surface(dir / "frames" / ("lv_" + std::to_string(k) + ".vtp"), s, k);
+    pvd += "<DataSet timestep=\"" + std::to_string(0.2 * k) + "\" group=\"\" part=\"0\" file=\"lv_" + std::to_string(k) + ".vtp\"/>\n";
+  }
+  write_file(dir / "frames" / "lv.pvd", pvd + "</Collection>\n</VTKFile>\n");
+  write_file(dir / "o.yaml", "name: series\nobserve:\n  meshes: frames/lv.pvd\n" + std::string(kLandmarksMm));
+  const auto config = std::filesystem::relative(dir / "o.yaml");
+  ASSERT_TRUE(config.is_relative());
+  const CliRun v = cli3d({"validate", config.string()});
+  EXPECT_EQ(v.code, 0) << v.err;
+  EXPECT_NE(v.out.find("ok (observe"), std::string::npos) << v.out;
+  const CliRun r = cli3d({"observe", config.string(), "-o", (dir / "o.csv").string()});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const app::io::ObservationCurves c = app::io::read_observation_csv(dir / "o.csv");
+  EXPECT_NEAR(c.trajectory.times(3), 0.6, 1e-12);
+  EXPECT_NEAR(c.trajectory.channel("V_lv")(2) / s.V[2], 1.0, 1e-12);
+}
+
 // A pressure trace is merged at the frame times; the ECG-trigger offset shifts the times.
 TEST(Observe, APressureTraceIsMergedAndTheTriggerOffsetShiftsTheTimes) {
   REQUIRE_FORMATS();
