@@ -160,14 +160,21 @@ void BM_Lv3dBeat(benchmark::State& st) {
   beat(st, o, static_cast<int>(st.range(1)));
 }
 
-// A beat against mesh size up to the medium preset (n_longitudinal a multiple of 3,
-// n_circumferential of 6 for the AHA segments). Arguments: (n_transmural, n_longitudinal,
-// n_circumferential, threads, solver as above).
-void BM_Lv3dBeatBySize(benchmark::State& st) {
+// The options with the mesh (n_transmural, n_longitudinal, n_circumferential) of the first three
+// benchmark arguments.
+LeftVentricle3DOptions sized_mesh(const benchmark::State& st) {
   LeftVentricle3DOptions o;
   o.n_transmural = static_cast<int>(st.range(0));
   o.n_longitudinal = static_cast<int>(st.range(1));
   o.n_circumferential = static_cast<int>(st.range(2));
+  return o;
+}
+
+// A beat against mesh size up to the medium preset (n_longitudinal a multiple of 3,
+// n_circumferential of 6 for the AHA segments). Arguments: (n_transmural, n_longitudinal,
+// n_circumferential, threads, solver as above).
+void BM_Lv3dBeatBySize(benchmark::State& st) {
+  LeftVentricle3DOptions o = sized_mesh(st);
   o.linear_solver = kSolvers[st.range(4)];
   beat(st, o, static_cast<int>(st.range(3)));
 }
@@ -176,10 +183,7 @@ void BM_Lv3dBeatBySize(benchmark::State& st) {
 // and grad_div beta (0 or 1; with 1 the mass Schur approximation, experiments/lv3d-solver/NOTES.md,
 // "The grad-div term in the beat").
 void BM_Lv3dBeatBySizeAmg(benchmark::State& st) {
-  LeftVentricle3DOptions o;
-  o.n_transmural = static_cast<int>(st.range(0));
-  o.n_longitudinal = static_cast<int>(st.range(1));
-  o.n_circumferential = static_cast<int>(st.range(2));
+  LeftVentricle3DOptions o = sized_mesh(st);
   o.linear_solver = LinearSolver::kAmg;
   o.linear_tolerance = std::pow(10.0, -static_cast<double>(st.range(4)));
   o.grad_div = static_cast<double>(st.range(5));
@@ -189,10 +193,7 @@ void BM_Lv3dBeatBySizeAmg(benchmark::State& st) {
 // docs/models.md s.4.8, "Linear tetrahedra") on the mesh (n_transmural, n_longitudinal,
 // n_circumferential) of the first three arguments.
 LeftVentricle3DOptions linear_mesh(const benchmark::State& st) {
-  LeftVentricle3DOptions o;
-  o.n_transmural = static_cast<int>(st.range(0));
-  o.n_longitudinal = static_cast<int>(st.range(1));
-  o.n_circumferential = static_cast<int>(st.range(2));
+  LeftVentricle3DOptions o = sized_mesh(st);
   o.element_order = 1;
   o.bulk_modulus = 1e7;
   o.quadrature_degree = 1;

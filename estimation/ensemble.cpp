@@ -18,10 +18,7 @@ constexpr std::array<EnumName<Backend>, 4> kBackendNames{{
     {Backend::kSerial, "serial"}, {Backend::kThreads, "threads"}, {Backend::kMpi, "mpi"},
     {Backend::kThreads, "openmp"},
 }};
-const char* to_string(Backend backend) { return enum_to_string(kBackendNames, backend); }
-std::optional<Backend> parse_backend(const std::string& text) {
-  return enum_from_string(kBackendNames, text);
-}
+SIGMAHEART_ENUM_TEXT(Backend, parse_backend, kBackendNames)
 
 std::string EnsembleOptions::validate() const {
   if (threads < 0 || threads > kMaxThreads) {

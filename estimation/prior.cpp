@@ -19,19 +19,13 @@ constexpr std::array<EnumName<SamplingSpace>, 4> kSamplingSpaceNames{{
     {SamplingSpace::kPhysical, "physical"}, {SamplingSpace::kEta, "eta"},
     {SamplingSpace::kPhysical, "theta"}, {SamplingSpace::kEta, "transformed"},
 }};
-const char* to_string(SamplingSpace space) { return enum_to_string(kSamplingSpaceNames, space); }
-std::optional<SamplingSpace> parse_sampling_space(const std::string& text) {
-  return enum_from_string(kSamplingSpaceNames, text);
-}
+SIGMAHEART_ENUM_TEXT(SamplingSpace, parse_sampling_space, kSamplingSpaceNames)
 
 constexpr std::array<EnumName<SpreadKind>, 3> kSpreadKindNames{{
     {SpreadKind::kRelative, "relative"}, {SpreadKind::kAbsolute, "absolute"},
     {SpreadKind::kEta, "eta"},
 }};
-const char* to_string(SpreadKind kind) { return enum_to_string(kSpreadKindNames, kind); }
-std::optional<SpreadKind> parse_spread_kind(const std::string& text) {
-  return enum_from_string(kSpreadKindNames, text);
-}
+SIGMAHEART_ENUM_TEXT(SpreadKind, parse_spread_kind, kSpreadKindNames)
 
 PriorParameter PriorParameter::gaussian(std::string name, std::string unit, double theta_mean,
                                         double spread, SpreadKind spread_kind, Transform transform,

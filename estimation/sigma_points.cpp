@@ -16,10 +16,7 @@ constexpr std::array<EnumName<SigmaRule>, 4> kSigmaRuleNames{{
     {SigmaRule::kSimplex, "simplex"}, {SigmaRule::kCanonical, "canonical"},
     {SigmaRule::kStar, "star"}, {SigmaRule::kScaled, "scaled"},
 }};
-const char* to_string(SigmaRule rule) { return enum_to_string(kSigmaRuleNames, rule); }
-std::optional<SigmaRule> parse_sigma_rule(const std::string& text) {
-  return enum_from_string(kSigmaRuleNames, text);
-}
+SIGMAHEART_ENUM_TEXT(SigmaRule, parse_sigma_rule, kSigmaRuleNames)
 
 std::string SigmaOptions::validate(int p) const {
   std::ostringstream s;

@@ -12,10 +12,7 @@ constexpr std::array<EnumName<TransformKind>, 4> kTransformKindNames{{
     {TransformKind::kIdentity, "identity"}, {TransformKind::kLog, "log"},
     {TransformKind::kLogit, "logit"}, {TransformKind::kIdentity, "none"},
 }};
-const char* to_string(TransformKind kind) { return enum_to_string(kTransformKindNames, kind); }
-std::optional<TransformKind> parse_transform_kind(const std::string& text) {
-  return enum_from_string(kTransformKindNames, text);
-}
+SIGMAHEART_ENUM_TEXT(TransformKind, parse_transform_kind, kTransformKindNames)
 
 double Transform::to_theta(double eta) const {
   switch (kind) {

@@ -36,3 +36,11 @@ std::optional<E> enum_from_string(const std::array<EnumName<E>, N>& table, std::
 }
 
 }  // namespace sigmaheart::model
+
+// Defines the pair every named enum declares beside its table (an std::array<EnumName<Enum>, N>):
+//   const char* to_string(Enum);  std::optional<Enum> parse(const std::string&);
+#define SIGMAHEART_ENUM_TEXT(Enum, parse, table)                                          \
+  const char* to_string(Enum value) { return ::sigmaheart::model::enum_to_string(table, value); } \
+  std::optional<Enum> parse(const std::string& text) {                                    \
+    return ::sigmaheart::model::enum_from_string(table, text);                            \
+  }

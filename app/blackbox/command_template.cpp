@@ -67,13 +67,13 @@ CommandTemplate CommandTemplate::parse(const std::string& text,
       end_word();
       continue;
     }
-    // Braces are placeholders everywhere, also inside quotes.
+    // Braces are placeholders everywhere, also inside quotes; a doubled brace is a literal one.
+    if ((c == '{' || c == '}') && i + 1 < text.size() && text[i + 1] == c) {
+      literal(c);
+      ++i;
+      continue;
+    }
     if (c == '{') {
-      if (i + 1 < text.size() && text[i + 1] == '{') {
-        literal('{');
-        ++i;
-        continue;
-      }
       const size_t close = text.find('}', i + 1);
       if (close == std::string::npos) bad(i, "'{' is never closed (write {{ for a literal brace)");
       const std::string name = text.substr(i + 1, close - i - 1);
@@ -87,14 +87,7 @@ CommandTemplate CommandTemplate::parse(const std::string& text,
       i = close;
       continue;
     }
-    if (c == '}') {
-      if (i + 1 < text.size() && text[i + 1] == '}') {
-        literal('}');
-        ++i;
-        continue;
-      }
-      bad(i, "'}' without a '{' (write }} for a literal brace)");
-    }
+    if (c == '}') bad(i, "'}' without a '{' (write }} for a literal brace)");
     literal(c);
   }
   if (quote != 0) bad(quote_start, std::string("the quote ") + quote + " is never closed");

@@ -17,10 +17,7 @@ namespace sigmaheart::estimation::parallel {
 constexpr std::array<EnumName<Schedule>, 3> kScheduleNames{{
     {Schedule::kDynamic, "dynamic"}, {Schedule::kFixed, "fixed"}, {Schedule::kFixed, "static"},
 }};
-const char* to_string(Schedule schedule) { return enum_to_string(kScheduleNames, schedule); }
-std::optional<Schedule> parse_schedule(const std::string& text) {
-  return enum_from_string(kScheduleNames, text);
-}
+SIGMAHEART_ENUM_TEXT(Schedule, parse_schedule, kScheduleNames)
 
 namespace {
 

@@ -76,10 +76,7 @@ constexpr std::array<EnumName<Scrambling>, 5> kScramblingNames{{
     {Scrambling::kNone, "off"}, {Scrambling::kLinearMatrixAndShift, "matousek"},
     {Scrambling::kLinearMatrixAndShift, "linear-matrix-shift"},
 }};
-const char* to_string(Scrambling scrambling) { return enum_to_string(kScramblingNames, scrambling); }
-std::optional<Scrambling> parse_scrambling(const std::string& text) {
-  return enum_from_string(kScramblingNames, text);
-}
+SIGMAHEART_ENUM_TEXT(Scrambling, parse_scrambling, kScramblingNames)
 
 std::string SobolSequenceOptions::validate() const {
   if (dimension < 1 || dimension > kMaxSobolDimension) {

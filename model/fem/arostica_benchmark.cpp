@@ -113,28 +113,20 @@ Frame arostica_fibre_frame(const Eigen::Vector3d& X, double t) {
 }
 
 std::vector<Frame> arostica_fibres(const Mesh& mesh, TransmuralSource source, int quadrature_degree) {
-  const auto& rule = tet_rule(quadrature_degree);
   const int npt = mesh.nodes_per_tet();
   Eigen::VectorXd tn;
   if (source == TransmuralSource::kLaplace) tn = transmural_coordinate(mesh, kEndocardium, kEpicardium);
   const EllipsoidGeometry g = arostica_geometry();
-  std::vector<Frame> frames;
-  frames.reserve(static_cast<size_t>(mesh.n_tets()) * rule.size());
-  Eigen::VectorXd N;
-  Eigen::MatrixXd dN;
-  for (Eigen::Index e = 0; e < mesh.tets.rows(); ++e)
-    for (const auto& qp : rule) {
-      tet_shape(mesh.order, qp.xi, N, dN);
-      Eigen::Vector3d X = Eigen::Vector3d::Zero();
-      double t = 0.0;
-      for (int a = 0; a < npt; ++a) {
-        X += N[a] * mesh.nodes.row(mesh.tets(e, a)).transpose();
-        if (source == TransmuralSource::kLaplace) t += N[a] * tn[mesh.tets(e, a)];
-      }
-      if (source == TransmuralSource::kParametric) t = g.coordinates(arostica_to_generator(X))[0];
-      frames.push_back(arostica_fibre_frame(X, std::clamp(t, 0.0, 1.0)));
+  return frames_at_quadrature_points(mesh, quadrature_degree, [&](Eigen::Index e, const Eigen::VectorXd& N) {
+    Eigen::Vector3d X = Eigen::Vector3d::Zero();
+    double t = 0.0;
+    for (int a = 0; a < npt; ++a) {
+      X += N[a] * mesh.nodes.row(mesh.tets(e, a)).transpose();
+      if (source == TransmuralSource::kLaplace) t += N[a] * tn[mesh.tets(e, a)];
     }
-  return frames;
+    if (source == TransmuralSource::kParametric) t = g.coordinates(arostica_to_generator(X))[0];
+    return arostica_fibre_frame(X, std::clamp(t, 0.0, 1.0));
+  });
 }
 
 PointProbe locate_point(const Mesh& mesh, const Eigen::Vector3d& X) {

@@ -43,6 +43,30 @@ Frame helix_frame(const Eigen::Vector3d& e_c, const Eigen::Vector3d& e_l, const 
 std::vector<Frame> ellipsoid_fibres(const Mesh& mesh, const EllipsoidGeometry& g, const FibreOptions& o,
                                     int quadrature_degree) {
   if (auto m = o.validate(); !m.empty()) throw std::invalid_argument("FibreOptions: " + m);
+  return frames_at_quadrature_points(mesh, quadrature_degree, [&](Eigen::Index e, const Eigen::VectorXd& N) {
+    Eigen::Vector3d x = Eigen::Vector3d::Zero();
+    for (int a = 0; a < mesh.nodes_per_tet(); ++a) x += N[a] * mesh.nodes.row(mesh.tets(e, a)).transpose();
+    const Eigen::Vector3d c = g.coordinates(x);
+    const double t = std::clamp(c[0], 0.0, 1.0), th = c[1], v = c[2];
+    const double rs = g.r_short(t), rl = g.r_long(t);
+    // d/dtheta of the position (apex -> base) and d/dv (counter-clockwise about +z).
+    Eigen::Vector3d e_l(rs * std::cos(th) * std::cos(v), rs * std::cos(th) * std::sin(v), rl * std::sin(th));
+    Eigen::Vector3d e_c;  // = e_l x e_t, counter-clockwise about +z
+    // Outward normal of the ellipsoid through x (endo -> epi).
+    Eigen::Vector3d e_t(std::sin(th) * std::cos(v) / rs, std::sin(th) * std::sin(v) / rs, -std::cos(th) / rl);
+    if (th < 1e-9) {  // on the axis: any circumferential direction; the fibre angle is a convention
+      e_t = Eigen::Vector3d(0, 0, -1);
+      e_l = Eigen::Vector3d(1, 0, 0);
+    }
+    orthonormalise(e_c, e_l, e_t);
+    const double alpha = (o.alpha_endo_deg + t * (o.alpha_epi_deg - o.alpha_endo_deg)) * kDeg;
+    return helix_frame(e_c, e_l, e_t, alpha);
+  });
+}
+
+std::vector<Frame> frames_at_quadrature_points(
+    const Mesh& mesh, int quadrature_degree,
+    const std::function<Frame(Eigen::Index e, const Eigen::VectorXd& N)>& frame) {
   const auto& rule = tet_rule(quadrature_degree);
   std::vector<Frame> out;
   out.reserve(static_cast<size_t>(mesh.n_tets()) * rule.size());
@@ -51,23 +75,7 @@ std::vector<Frame> ellipsoid_fibres(const Mesh& mesh, const EllipsoidGeometry& g
   for (Eigen::Index e = 0; e < mesh.tets.rows(); ++e)
     for (const auto& qp : rule) {
       tet_shape(mesh.order, qp.xi, N, dN);
-      Eigen::Vector3d x = Eigen::Vector3d::Zero();
-      for (int a = 0; a < mesh.nodes_per_tet(); ++a) x += N[a] * mesh.nodes.row(mesh.tets(e, a)).transpose();
-      const Eigen::Vector3d c = g.coordinates(x);
-      const double t = std::clamp(c[0], 0.0, 1.0), th = c[1], v = c[2];
-      const double rs = g.r_short(t), rl = g.r_long(t);
-      // d/dtheta of the position (apex -> base) and d/dv (counter-clockwise about +z).
-      Eigen::Vector3d e_l(rs * std::cos(th) * std::cos(v), rs * std::cos(th) * std::sin(v), rl * std::sin(th));
-      Eigen::Vector3d e_c;  // = e_l x e_t, counter-clockwise about +z
-      // Outward normal of the ellipsoid through x (endo -> epi).
-      Eigen::Vector3d e_t(std::sin(th) * std::cos(v) / rs, std::sin(th) * std::sin(v) / rs, -std::cos(th) / rl);
-      if (th < 1e-9) {  // on the axis: any circumferential direction; the fibre angle is a convention
-        e_t = Eigen::Vector3d(0, 0, -1);
-        e_l = Eigen::Vector3d(1, 0, 0);
-      }
-      orthonormalise(e_c, e_l, e_t);
-      const double alpha = (o.alpha_endo_deg + t * (o.alpha_epi_deg - o.alpha_endo_deg)) * kDeg;
-      out.push_back(helix_frame(e_c, e_l, e_t, alpha));
+      out.push_back(frame(e, N));
     }
   return out;
 }

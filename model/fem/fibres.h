@@ -14,6 +14,7 @@
 #include <Eigen/Core>
 
 #include <string>
+#include <functional>
 #include <vector>
 
 namespace sigmaheart::model::fem {
@@ -26,6 +27,13 @@ struct FibreOptions {
 
 // Orthonormal frame (f, s, n) from the local directions and the helix angle [rad].
 Frame helix_frame(const Eigen::Vector3d& e_c, const Eigen::Vector3d& e_l, const Eigen::Vector3d& e_t, double alpha);
+
+// frame(e, N) at every quadrature point (degree as in MechanicsOptions) of every tetrahedron e, N
+// the element's shape functions there; element-major, n_tets * n_qp entries: the layout of the
+// fibre fields below.
+std::vector<Frame> frames_at_quadrature_points(
+    const Mesh& mesh, int quadrature_degree,
+    const std::function<Frame(Eigen::Index e, const Eigen::VectorXd& N)>& frame);
 
 // Frames at the quadrature points (degree as in MechanicsOptions) of every tetrahedron of a mesh
 // of the ellipsoid; t and the directions come from the ellipsoidal coordinates of the point.

@@ -147,18 +147,25 @@ FailedSimulation simulate_failing(const std::string& fail) {
   return f;
 }
 
+// What every failed simulation shows: exit 1, the message naming `status`, `reason` and the
+// failed-beat file r.failed.h5, the earlier result kept, no temporaries, the status in that file.
+void expect_failed_beside_earlier_result(const FailedSimulation& f, const std::string& status,
+                                         const std::string& reason) {
+  EXPECT_EQ(f.run.code, kExitRuntimeFailure);
+  EXPECT_EQ(f.run.err, "error: simulation of 'standin' failed (" + status + "): " + reason + " is written to " +
+                           (f.dir / "r.failed.h5").string() + "; the earlier result " + f.h5.string() + " was kept\n");
+  EXPECT_EQ(read_file(f.h5), "previous result");
+  EXPECT_EQ(temporaries_in(f.dir), 0);
+  EXPECT_EQ(io::Hdf5Reader((f.dir / "r.failed.h5").string()).string_attribute("/summary", "status"), status);
+}
+
 // A run that diverged inside a beat writes that beat's finite samples up to the failure, without
 // indices, with status "diverged" and its message (exit 1), beside an earlier result, which stays.
 TEST(Cli, DivergedSimulationExitsOneAndWritesTheBeatUpToTheFailure) {
-  const auto [dir, h5, json, csv, r] = simulate_failing("0.87");
-  EXPECT_EQ(r.code, kExitRuntimeFailure);
-  EXPECT_EQ(r.err, "error: simulation of 'standin' failed (diverged): Newton diverged at t = 0.3 s; the beat up to "
-                   "t = 0.3 s of beat 3 is written to " +
-                       (dir / "r.failed.h5").string() + "; the earlier result " + h5.string() + " was kept\n");
-  EXPECT_EQ(read_file(h5), "previous result");
-  EXPECT_EQ(temporaries_in(dir), 0);
+  const FailedSimulation failed = simulate_failing("0.87");
+  const auto& [dir, h5, json, csv, r] = failed;
+  expect_failed_beside_earlier_result(failed, "diverged", "Newton diverged at t = 0.3 s; the beat up to t = 0.3 s of beat 3");
   io::Hdf5Reader f((dir / "r.failed.h5").string());
-  EXPECT_EQ(f.string_attribute("/summary", "status"), "diverged");
   EXPECT_EQ(f.string_attribute("/summary", "message"), "Newton diverged at t = 0.3 s");
   // 41 samples over 0.8 s: those at t = 0, 0.02, ..., 0.3 s; the NaN sample after them is left out.
   const Eigen::VectorXd v = f.read_vector("/trajectories/simulated/V_lv");
@@ -180,15 +187,12 @@ TEST(Cli, DivergedSimulationExitsOneAndWritesTheBeatUpToTheFailure) {
 // A run that ends without a periodic beat still integrated its beats: the last one is written with
 // status "not-periodic" (exit 1), beside an earlier result, which stays.
 TEST(Cli, NotPeriodicSimulationExitsOneAndWritesItsLastBeatBesideTheEarlierResult) {
-  const auto [dir, h5, json, csv, r] = simulate_failing("0.85");
-  EXPECT_EQ(r.code, kExitRuntimeFailure);
-  EXPECT_EQ(r.err, "error: simulation of 'standin' failed (not-periodic): not periodic after 3 beats: beat-to-beat "
-                   "change 0.02 > periodic_tolerance 0.001; the last beat is written to " +
-                       (dir / "r.failed.h5").string() + "; the earlier result " + h5.string() + " was kept\n");
-  EXPECT_EQ(read_file(h5), "previous result");
-  EXPECT_EQ(temporaries_in(dir), 0);
+  const FailedSimulation failed = simulate_failing("0.85");
+  const auto& [dir, h5, json, csv, r] = failed;
+  expect_failed_beside_earlier_result(
+      failed, "not-periodic",
+      "not periodic after 3 beats: beat-to-beat change 0.02 > periodic_tolerance 0.001; the last beat");
   io::Hdf5Reader f((dir / "r.failed.h5").string());
-  EXPECT_EQ(f.string_attribute("/summary", "status"), "not-periodic");
   const Eigen::VectorXd v = f.read_vector("/trajectories/simulated/V_lv");
   ASSERT_EQ(v.size(), 41);
   EXPECT_NEAR(v(0), 150.0, 1e-9);  // mL, the beat as computed

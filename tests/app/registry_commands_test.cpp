@@ -20,21 +20,13 @@ namespace {
 
 // The built-in models plus the two-segment test model.
 const model::ModelRegistry& models() {
-  static const model::ModelRegistry registry = [] {
-    model::ModelRegistry r = model::builtin_models();
-    register_two_segment_model(r);
-    return r;
-  }();
+  static const model::ModelRegistry registry = with_models(model::builtin_models(), {register_two_segment_model});
   return registry;
 }
 
 // The two-segment model alone, for the contract suite.
 const model::ModelRegistry& test_model_only() {
-  static const model::ModelRegistry registry = [] {
-    model::ModelRegistry r;
-    register_two_segment_model(r);
-    return r;
-  }();
+  static const model::ModelRegistry registry = with_models(model::ModelRegistry{}, {register_two_segment_model});
   return registry;
 }
 

@@ -12,6 +12,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <initializer_list>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -137,13 +138,17 @@ inline void register_stand_in(model::ModelRegistry& registry) {
       }});
 }
 
+// `base` with each registration of `add` applied: a test file's set of models, built once as
+//   static const model::ModelRegistry registry = with_models(model::builtin_models(), {register_stand_in});
+inline model::ModelRegistry with_models(model::ModelRegistry base,
+                                        std::initializer_list<void (*)(model::ModelRegistry&)> add) {
+  for (auto* registration : add) registration(base);
+  return base;
+}
+
 // The built-in models plus "test-beat".
 inline const model::ModelRegistry& stand_in_models() {
-  static const model::ModelRegistry registry = [] {
-    model::ModelRegistry r = model::builtin_models();
-    register_stand_in(r);
-    return r;
-  }();
+  static const model::ModelRegistry registry = with_models(model::builtin_models(), {register_stand_in});
   return registry;
 }
 

@@ -5,6 +5,7 @@
 #include "estimation/ensemble.h"
 #include "estimation/interrupt.h"
 #include "estimation/ut_calibration.h"
+#include "tests/support/bitwise_equal.h"
 
 #include "tests/support/function_model.h"
 
@@ -38,10 +39,7 @@ CheckpointOptions opts(const std::filesystem::path& path, bool resume, std::uint
   return o;
 }
 
-bool bitwise_equal(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
-  return a.rows() == b.rows() && a.cols() == b.cols() &&
-         std::memcmp(a.data(), b.data(), sizeof(double) * static_cast<size_t>(a.size())) == 0;
-}
+using sigmaheart::testing::bitwise_equal;
 
 TEST(MemberCheckpoint, RecordsReadBackBitForBitAndACutTailIsDropped) {
   const auto path = scratch("records.ckpt");

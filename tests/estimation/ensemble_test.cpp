@@ -1,4 +1,5 @@
 #include "estimation/ensemble.h"
+#include "tests/support/bitwise_equal.h"
 
 #include "tests/support/function_model.h"
 
@@ -53,10 +54,7 @@ EnsembleOptions options(Backend backend, int threads = 0) {
   return o;
 }
 
-bool bitwise_equal(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
-  return a.rows() == b.rows() && a.cols() == b.cols() &&
-         std::memcmp(a.data(), b.data(), sizeof(double) * static_cast<size_t>(a.size())) == 0;
-}
+using sigmaheart::testing::bitwise_equal;
 
 TEST(Ensemble, OneAndTwoThreadsGiveBitwiseIdenticalResultsIncludingFailures) {
   const FunctionModel proto = toy_model();

@@ -283,15 +283,21 @@ TEST(ExternalModel, GarbageMissingAndNonFiniteOutputsAreBadOutput) {
   EXPECT_EQ(outside.status.code, StatusCode::kOutOfBounds);
 }
 
-TEST(ExternalModel, AMissingChannelIsBadOutput) {
-  const auto dir = scratch_dir();
-  write_script(dir);
-  std::string text = read_file(write_config(dir));
-  text.replace(text.find("      - {name: phase, unit: \"1\"}"), 0, "      - {name: P_ao, unit: mmHg}\n");
+// The config `text` with a channel `name` declared before the line `before`: the program's output
+// has no such column, so a run is bad output that names it.
+void expect_missing_column(const fs::path& dir, std::string text, const std::string& before, const std::string& name,
+                           const std::string& unit) {
+  text.replace(text.find(before), 0, "      - {name: " + name + ", unit: " + unit + "}\n");
   auto sim = make_simulator(write_file(dir / "m.yaml", text));
   const model::RunResult r = sim->run(theta(0.0));
   EXPECT_EQ(r.status.code, StatusCode::kBadOutput);
-  EXPECT_NE(r.status.message.find("no column 'P_ao'"), std::string::npos) << r.status.message;
+  EXPECT_NE(r.status.message.find("no column '" + name + "'"), std::string::npos) << r.status.message;
+}
+
+TEST(ExternalModel, AMissingChannelIsBadOutput) {
+  const auto dir = scratch_dir();
+  write_script(dir);
+  expect_missing_column(dir, read_file(write_config(dir)), "      - {name: phase, unit: \"1\"}", "P_ao", "mmHg");
 }
 
 TEST(ExternalModel, YamlParameterFilesCarryTheExactValues) {
@@ -335,12 +341,7 @@ TEST(ExternalModel, HdfOutputIsReadWithItsUnits) {
   EXPECT_DOUBLE_EQ(r.trajectory.values(2, 0), 60e-6);
   EXPECT_DOUBLE_EQ(r.trajectory.values(2, 1), 120 * 133.322);
   // A channel the file lacks is bad output.
-  std::string lacking = text;
-  lacking.replace(lacking.find("      - {name: P_lv, unit: Pa}\n"), 0, "      - {name: P_ar, unit: Pa}\n");
-  auto sim2 = make_simulator(write_file(dir / "m.yaml", lacking));
-  const model::RunResult bad = sim2->run(theta(0.0));
-  EXPECT_EQ(bad.status.code, StatusCode::kBadOutput);
-  EXPECT_NE(bad.status.message.find("no column 'P_ar'"), std::string::npos) << bad.status.message;
+  expect_missing_column(dir, text, "      - {name: P_lv, unit: Pa}\n", "P_ar", "Pa");
 }
 
 // Clones run concurrently in the ensemble's workers; each failure is its member's Status.

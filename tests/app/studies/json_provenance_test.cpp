@@ -25,12 +25,8 @@ namespace {
 
 // The built-in models, the stand-in and the two-segment test model.
 const model::ModelRegistry& models() {
-  static const model::ModelRegistry registry = [] {
-    model::ModelRegistry r = model::builtin_models();
-    register_stand_in(r);
-    register_two_segment_model(r);
-    return r;
-  }();
+  static const model::ModelRegistry registry =
+      with_models(model::builtin_models(), {register_stand_in, register_two_segment_model});
   return registry;
 }
 

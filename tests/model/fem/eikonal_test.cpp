@@ -2,6 +2,7 @@
 // and its observed order, causality on sheared (obtuse) meshes, several onsets, bad input, the
 // healthy and LBBB patterns on the LV ellipsoid.
 #include "model/fem/eikonal.h"
+#include "tests/support/expect_between.h"
 
 #include "model/fem/cavity.h"
 #include "model/fem/element.h"
@@ -23,6 +24,8 @@
 
 namespace sigmaheart::model::fem {
 namespace {
+
+using sigmaheart::testing::expect_between;
 
 constexpr double kL = 10e-3;  // box edge [m]
 
@@ -379,34 +382,33 @@ std::array<double, kAhaSegments> segment_means(const LvCase& c, const Eigen::Vec
   return sum;
 }
 
+// The pattern's activation on the LV, its total time and segment means printed under `label`.
+EikonalResult solve_pattern(const LvCase& c, ActivationPattern pattern, const char* label) {
+  auto r = solve_eikonal(c.mesh, activation_pattern(c.mesh, c.frames, pattern));
+  std::cout << label << ": total " << r.total_activation_time() * 1e3 << " ms; segment means [ms]:";
+  for (double s : segment_means(c, r.times)) std::cout << " " << s * 1e3;
+  std::cout << "\n";
+  return r;
+}
+
 TEST(Eikonal, HealthyPatternActivatesTheLvWithinTheNormalQrs) {
   const auto& c = lv();
-  const auto o = activation_pattern(c.mesh, c.frames, ActivationPattern::kHealthy);
-  const auto r = solve_eikonal(c.mesh, o);
+  const auto r = solve_pattern(c, ActivationPattern::kHealthy, "healthy");
   const auto seg = segment_means(c, r.times);
-  std::cout << "healthy: total " << r.total_activation_time() * 1e3 << " ms; segment means [ms]:";
-  for (double s : seg) std::cout << " " << s * 1e3;
-  std::cout << "\n";
   // Latest epicardial activation in hearts with a normal QRS: 63-96 ms after QRS onset, basal
   // (Wyndham et al. 1979, Circulation 59:161); the last LV region is posterobasal (Durrer 1970).
-  EXPECT_GT(r.total_activation_time(), 0.060);
-  EXPECT_LT(r.total_activation_time(), 0.100);
+  expect_between(r.total_activation_time(), 0.060, 0.100, "total activation time [s]");
   const auto latest = static_cast<int>(std::max_element(seg.begin(), seg.end()) - seg.begin()) + 1;
   EXPECT_TRUE(latest >= 1 && latest <= 6) << "latest segment " << latest;  // basal
 }
 
 TEST(Eikonal, LbbbPatternIsLateAndLatestInTheLateralWall) {
   const auto& c = lv();
-  const auto o = activation_pattern(c.mesh, c.frames, ActivationPattern::kLbbb);
-  const auto r = solve_eikonal(c.mesh, o);
+  const auto r = solve_pattern(c, ActivationPattern::kLbbb, "lbbb");
   const auto seg = segment_means(c, r.times);
-  std::cout << "lbbb: total " << r.total_activation_time() * 1e3 << " ms; segment means [ms]:";
-  for (double s : seg) std::cout << " " << s * 1e3;
-  std::cout << "\n";
   // QRS of LBBB: >= 130-140 ms (Strauss et al. 2011, Am J Cardiol 107:927), 157 +- 18 ms in a
   // body-surface-mapping cohort (J Interv Card Electrophysiol 2020, doi:10.1007/s10840-019-00567-2).
-  EXPECT_GT(r.total_activation_time(), 0.130);
-  EXPECT_LT(r.total_activation_time(), 0.180);
+  expect_between(r.total_activation_time(), 0.130, 0.180, "total activation time [s]");
   // The latest element lies in a lateral segment: 5 inferolateral, 6 anterolateral, 11, 12, 16.
   int latest = 0;
   double tl = -1;

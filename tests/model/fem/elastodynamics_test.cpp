@@ -8,6 +8,7 @@
 #include "model/fem/fibres.h"
 #include "model/fem/material.h"
 #include "model/fem/mesh.h"
+#include "tests/model/fem/perturbed_state.h"
 
 #include <Eigen/Dense>
 #include <gtest/gtest.h>
@@ -69,14 +70,7 @@ TEST(Elastodynamics, EffectiveTangentMatchesFiniteDifferences) {
     for (int j = 0; j < n; j += 7) {
       if (b.mech->is_fixed(j)) continue;
       const double h = j < nu ? 1e-8 : 1e-3;
-      State sp = trial, sm = trial;
-      if (j < nu) {
-        sp.u[j] += h;
-        sm.u[j] -= h;
-      } else {
-        sp.p[j - nu] += h;
-        sm.p[j - nu] -= h;
-      }
+      const auto [sp, sm] = perturbed(trial, j, h);
       Eigen::VectorXd Gp, Gm;
       ASSERT_TRUE(b.dyn->residual(xn, sp, load, &Gp, nullptr));
       ASSERT_TRUE(b.dyn->residual(xn, sm, load, &Gm, nullptr));

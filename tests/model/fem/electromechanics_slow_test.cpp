@@ -4,6 +4,7 @@
 #include "model/fem/electromechanics.h"
 #include "model/fem/register.h"
 #include "tests/model/map_options.h"
+#include "tests/support/expect_between.h"
 
 #include "tests/model/simulator_contract.h"
 
@@ -20,6 +21,7 @@ namespace sigmaheart::model::fem {
 namespace {
 
 using sigmaheart::model::testing::MapOptions;
+using sigmaheart::testing::expect_between;
 
 // Clinical indices of a periodic beat from the channels (V_lv, P_lv, P_ar the first three).
 struct BeatIndices {
@@ -47,19 +49,13 @@ BeatIndices beat_indices(const RunResult& r) {
 
 // The healthy adult ranges of docs/models.md s.7 (dP/dt: the textbook 1200-2000 mmHg/s), no margin.
 void expect_adult_ranges(const BeatIndices& b) {
-  EXPECT_GT(b.edv, 83.0);
-  EXPECT_LT(b.edv, 218.0);
-  EXPECT_GT(b.esv, 18.0);
-  EXPECT_LT(b.esv, 82.0);
-  EXPECT_GT(b.ef, 59.0);
-  EXPECT_LT(b.ef, 85.0);
-  EXPECT_GT(b.aortic_max, 90.0);
-  EXPECT_LT(b.aortic_max, 130.0);
-  EXPECT_GT(b.aortic_min, 60.0);
-  EXPECT_LT(b.aortic_min, 85.0);
+  expect_between(b.edv, 83.0, 218.0, "EDV [mL]");
+  expect_between(b.esv, 18.0, 82.0, "ESV [mL]");
+  expect_between(b.ef, 59.0, 85.0, "EF [%]");
+  expect_between(b.aortic_max, 90.0, 130.0, "aortic systolic [mmHg]");
+  expect_between(b.aortic_min, 60.0, 85.0, "aortic diastolic [mmHg]");
   EXPECT_LT(b.edp, 16.0);  // t = 0 is end-diastole with healthy activation: EDP below 16 mmHg
-  EXPECT_GT(b.dpdt_max, 1200.0);
-  EXPECT_LT(b.dpdt_max, 2000.0);
+  expect_between(b.dpdt_max, 1200.0, 2000.0, "dP/dt max [mmHg/s]");
 }
 
 // The lv-3d preset `name` built as a config naming it would build it (its numerics under `numerics`,
@@ -136,8 +132,7 @@ void expect_lbbb_failing_beat(const MapOptions& numerics, const char* label) {
               label, b.edv, b.esv, b.ef, b.edp, b.aortic_max, b.aortic_min, b.dpdt_max, qrs_ms, r.info.beats);
   EXPECT_GT(b.edv, 218.0);
   EXPECT_GT(b.esv, 82.0);
-  EXPECT_GT(b.ef, 20.0);
-  EXPECT_LT(b.ef, 40.0);
+  expect_between(b.ef, 20.0, 40.0, "EF [%]");
   EXPECT_GT(b.edp, 16.0);
   EXPECT_GE(b.aortic_max, 90.0);
   EXPECT_LT(b.dpdt_max, 1000.0);

@@ -21,46 +21,6 @@
 namespace sigmaheart::model::fem {
 namespace {
 
-TEST(BcsPassive, TangentMatchesFiniteDifferencesOfTheStress) {
-  BcsPassive law({200.0, 300.0, 200.0, 1.5});
-  std::mt19937 rng(7);
-  std::uniform_real_distribution<double> U(-0.15, 0.15);
-  Eigen::Matrix3d E;
-  for (int i = 0; i < 3; ++i)
-    for (int j = i; j < 3; ++j) E(i, j) = E(j, i) = U(rng);
-  E += 0.2 * Eigen::Matrix3d::Identity();
-  const Frame R = Frame::Identity();
-  Eigen::Matrix3d S;
-  Matrix9d D;
-  law.stress(E, R, S, D);
-  // S = dW/dE against central differences of the energy.
-  const double h = 1e-6;
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) {
-      Eigen::Matrix3d dE = Eigen::Matrix3d::Zero();
-      dE(i, j) += 0.5 * h;
-      dE(j, i) += 0.5 * h;
-      const double fd = (law.energy(E + dE, R) - law.energy(E - dE, R)) / (2 * h);
-      EXPECT_NEAR(S(i, j), fd, 1e-6 * S.norm()) << i << j;
-    }
-  // D (minor-symmetric) against central differences of S along symmetric directions.
-  for (int k = 0; k < 3; ++k)
-    for (int l = k; l < 3; ++l) {
-      Eigen::Matrix3d dE = Eigen::Matrix3d::Zero();
-      dE(k, l) += 0.5 * h;
-      dE(l, k) += 0.5 * h;
-      Eigen::Matrix3d Sp, Sm;
-      Matrix9d Dd;
-      law.stress(E + dE, R, Sp, Dd);
-      law.stress(E - dE, R, Sm, Dd);
-      const Eigen::Matrix3d fd = (Sp - Sm) / (2 * h);
-      Eigen::Matrix3d an;
-      for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) an(i, j) = 0.5 * (D(3 * i + j, 3 * k + l) + D(3 * i + j, 3 * l + k));
-      EXPECT_LE((an - fd).norm(), 1e-5 * D.norm()) << "direction " << k << l;
-    }
-}
-
 bool contains(const std::vector<std::string>& v, const std::string& s) {
   return std::find(v.begin(), v.end(), s) != v.end();
 }

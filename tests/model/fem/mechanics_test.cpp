@@ -3,6 +3,7 @@
 #include "model/fem/mechanics.h"
 
 #include "model/fem/fibres.h"
+#include "tests/model/fem/perturbed_state.h"
 
 #include <Eigen/Dense>
 #include <gtest/gtest.h>
@@ -22,14 +23,7 @@ double tangent_error(Mechanics& mech, const State& s, const Load& load) {
   Eigen::MatrixXd Kfd(Kd.rows(), Kd.cols());
   for (int j = 0; j < Kd.cols(); ++j) {
     const double h = j < nu ? 1e-7 * 1e-3 : 1e-3;
-    State sp = s, sm = s;
-    if (j < nu) {
-      sp.u[j] += h;
-      sm.u[j] -= h;
-    } else {
-      sp.p[j - nu] += h;
-      sm.p[j - nu] -= h;
-    }
+    const auto [sp, sm] = perturbed(s, j, h);
     Eigen::VectorXd Rp, Rm;
     mech.assemble(sp, load, &Rp, nullptr);
     mech.assemble(sm, load, &Rm, nullptr);

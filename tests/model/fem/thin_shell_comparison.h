@@ -44,7 +44,7 @@ inline constexpr double kEndoRadius = 25e-3;    // [m]
 inline constexpr double kMmHg = 133.322;        // [Pa]
 
 struct ThinShellCase {
-  double thickness_ratio = 0.4;   // d / R_endo (thinner walls need finer meshes: thin_shell_slow_test)
+  double thickness_ratio = 0.4;   // d / R_endo (thinner walls need finer meshes: ThinShellSlow)
   double base_fraction = 0.9;     // base plane z_base / R_endo
   int n_longitudinal = 6;
   int n_circumferential = 12;
