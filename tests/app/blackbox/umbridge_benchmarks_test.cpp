@@ -17,6 +17,7 @@
 #include <array>
 #include <cmath>
 #include <sstream>
+#include <variant>
 
 namespace sigmaheart::testing {
 namespace {

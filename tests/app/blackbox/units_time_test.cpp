@@ -15,6 +15,7 @@
 
 #include <cmath>
 #include <sstream>
+#include <tuple>
 
 namespace sigmaheart::testing {
 namespace {
