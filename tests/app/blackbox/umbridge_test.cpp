@@ -36,17 +36,31 @@ struct Served {
   std::string url() const { return "http://127.0.0.1:" + std::to_string(port); }
 };
 
-Served serve_stand_in(std::vector<std::string> channels = {"V_lv", "P_lv"}, int frames = 20) {
+Served serve_stand_in(const bb::ServeOptions& o) {
   Served s;
+  s.server = std::make_unique<bb::UmbridgeServer>(std::make_unique<BeatStandIn>(BeatStandIn::defaults(), 81), o);
+  s.port = s.server->bind("127.0.0.1", 0);
+  s.server->start();
+  return s;
+}
+
+Served serve_stand_in(std::vector<std::string> channels = {"V_lv", "P_lv"}, int frames = 20) {
   bb::ServeOptions o;
   o.channels = std::move(channels);
   o.frames = frames;
   o.threads = 2;
-  s.server = std::make_unique<bb::UmbridgeServer>(
-      std::make_unique<BeatStandIn>(BeatStandIn::defaults(), 81), o);
-  s.port = s.server->bind("127.0.0.1", 0);
-  s.server->start();
-  return s;
+  return serve_stand_in(o);
+}
+
+// `count` keep-alive connections that asked once and stay open, idle.
+std::vector<std::unique_ptr<httplib::Client>> idle_connections(const Served& s, int count) {
+  std::vector<std::unique_ptr<httplib::Client>> idle;
+  for (int i = 0; i < count; ++i) {
+    idle.push_back(std::make_unique<httplib::Client>(s.url()));
+    idle.back()->set_keep_alive(true);
+    EXPECT_TRUE(idle.back()->Get("/Info"));
+  }
+  return idle;
 }
 
 json post(const Served& s, const std::string& path, const std::string& body, int& status) {
@@ -309,22 +323,14 @@ TEST(UmbridgeServer, ASecondServerOnTheSamePortFailsAndServeSaysWhy) {
 // connections on their own threads the third is answered at once (before, it waited for an idle
 // connection to time out; here that would take 30 s and its 10 s read limit would fail it).
 TEST(UmbridgeServer, IdleKeepAliveConnectionsNeverHoldAnEvaluationSlot) {
-  Served s;
   bb::ServeOptions o;
   o.channels = {"V_lv"};
   o.frames = 10;
   o.threads = 1;
   o.connections = 8;
   o.keep_alive = 30.0;
-  s.server = std::make_unique<bb::UmbridgeServer>(std::make_unique<BeatStandIn>(BeatStandIn::defaults(), 81), o);
-  s.port = s.server->bind("127.0.0.1", 0);
-  s.server->start();
-  std::vector<std::unique_ptr<httplib::Client>> idle;
-  for (int i = 0; i < 2; ++i) {
-    idle.push_back(std::make_unique<httplib::Client>(s.url()));
-    idle.back()->set_keep_alive(true);
-    ASSERT_TRUE(idle.back()->Get("/Info"));  // connected, answered, left open
-  }
+  const Served s = serve_stand_in(o);
+  const auto idle = idle_connections(s, 2);  // connected, answered, left open
   httplib::Client third(s.url());
   third.set_read_timeout(10, 0);
   auto res = third.Post("/Evaluate", R"({"name": "forward", "input": [[1.4e-4, 0.6, 16000, 0]]})",
@@ -337,22 +343,14 @@ TEST(UmbridgeServer, IdleKeepAliveConnectionsNeverHoldAnEvaluationSlot) {
 // equals the in-process run bit for bit. The latencies are printed (bench/blackbox_bench.cpp
 // measures throughput); the test bounds count and time by its request count and read limits.
 TEST(UmbridgeServer, LoadOfEightClientsWithIdleConnectionsGetsEveryAnswerRight) {
-  Served s;
   bb::ServeOptions o;
   o.channels = {"V_lv", "P_lv"};
   o.frames = 20;
   o.threads = 2;
   o.connections = 16;
   o.keep_alive = 30.0;
-  s.server = std::make_unique<bb::UmbridgeServer>(std::make_unique<BeatStandIn>(BeatStandIn::defaults(), 81), o);
-  s.port = s.server->bind("127.0.0.1", 0);
-  s.server->start();
-  std::vector<std::unique_ptr<httplib::Client>> idle;
-  for (int i = 0; i < 4; ++i) {
-    idle.push_back(std::make_unique<httplib::Client>(s.url()));
-    idle.back()->set_keep_alive(true);
-    ASSERT_TRUE(idle.back()->Get("/Info"));
-  }
+  const Served s = serve_stand_in(o);
+  const auto idle = idle_connections(s, 4);
   const int clients = 8, requests = 40;
   std::vector<std::vector<double>> latency(clients);
   std::vector<int> wrong(clients, 0), failed(clients, 0);
