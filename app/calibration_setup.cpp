@@ -185,15 +185,18 @@ void parse_output_observations(const ConfigNode& obs, const std::vector<model::C
     values.fail(e.what());
   }
   if (!obs.has("covariance")) return;
-  const auto rows = obs["covariance"].as<std::vector<std::vector<double>>>();
+  const ConfigNode rows = obs["covariance"];
   const auto m = static_cast<Eigen::Index>(names.size());
   Eigen::MatrixXd R(m, m);
-  if (static_cast<Eigen::Index>(rows.size()) != m) obs["covariance"].fail("expected " + std::to_string(m) + " rows");
+  if (!rows.is_sequence() || static_cast<Eigen::Index>(rows.size()) != m) {
+    rows.fail("expected " + std::to_string(m) + " rows of " + std::to_string(m) + " numbers");
+  }
   for (Eigen::Index i = 0; i < m; ++i) {
-    if (static_cast<Eigen::Index>(rows[static_cast<size_t>(i)].size()) != m) {
-      obs["covariance"].fail("expected " + std::to_string(m) + " entries in row " + std::to_string(i + 1));
+    const auto row = rows[static_cast<size_t>(i)].as<std::vector<double>>();
+    if (static_cast<Eigen::Index>(row.size()) != m) {
+      rows[static_cast<size_t>(i)].fail("expected " + std::to_string(m) + " numbers in row " + std::to_string(i + 1));
     }
-    for (Eigen::Index j = 0; j < m; ++j) R(i, j) = rows[static_cast<size_t>(i)][static_cast<size_t>(j)];
+    for (Eigen::Index j = 0; j < m; ++j) R(i, j) = row[static_cast<size_t>(j)];
   }
   try {
     observers::set_covariance(out.observations, R, out.observations.display_units);

@@ -114,13 +114,13 @@ TEST(UmbridgeBenchmarks, SobolIndicesOfTheBananaWithItsConfigMatchTheExactOnes) 
   ASSERT_TRUE(summary.ok()) << summary.message;
   const Exact exact = exact_indices(-2.5, 2.5, -1.5, 1.5, a, b, scale);
   const Exact other = exact_indices(-2.5, 2.5, -1.5, 1.5, 2.0, 0.2, 1.0);  // the default config
+  const auto& e = summary.estimate;
   for (int i = 0; i < 2; ++i) {
-    const auto& e = summary.estimate;
     EXPECT_LE(std::abs(e.S1(i, 0) - exact.S1[static_cast<size_t>(i)]), e.S1_conf(i, 0)) << summary.report();
     EXPECT_LE(std::abs(e.ST(i, 0) - exact.ST[static_cast<size_t>(i)]), e.ST_conf(i, 0)) << summary.report();
-    EXPECT_GT(std::abs(other.S1[static_cast<size_t>(i)] - exact.S1[static_cast<size_t>(i)]), 2 * e.S1_conf(i, 0))
-        << "the default config's indices would not be told apart";
   }
+  // Had the config not arrived, x2's first-order index (0.763 instead of 0.241) would be outside.
+  EXPECT_GT(std::abs(e.S1(1, 0) - other.S1[1]), e.S1_conf(1, 0)) << summary.report();
 }
 
 // [[x], [y]] -> [[x + y], [x y, x - y]]: observe s = x + y and v[1] = x - y (linear in x and y);
@@ -138,7 +138,7 @@ TEST(UmbridgeBenchmarks, CalibratingNamedOutputsOfSeveralVectorsGivesTheExactPos
                           "      - {name: x, unit: \"1\", nominal: 1, lower: -100, upper: 100, input: 0}\n"
                           "      - {name: y, unit: \"1\", nominal: 0.5, lower: -100, upper: 100, input: 1}\n"
                           "observations:\n  outputs:\n    s: {value: 3, noise: 0.5}\n    \"v[1]\": {value: 1, noise: 0.5}\n"
-                          "estimate:\n  x: {spread: 100 %}\n  y: {spread: 200 %}\n");
+                          "estimate:\n  x: {spread: 100 %, transform: identity}\n  y: {spread: 200 %, transform: identity}\n");
   std::ostringstream out, err;
   ASSERT_EQ(app::run_cli({"--log-level", "off", "calibrate", cfg.string(), "-o", (dir / "c.h5").string(),
                           "--summary", (dir / "c.json").string()},

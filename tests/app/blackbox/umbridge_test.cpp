@@ -359,6 +359,7 @@ TEST(UmbridgeServer, LoadOfEightClientsWithIdleConnectionsGetsEveryAnswerRight) 
     threads.emplace_back([&, c] {
       httplib::Client client(s.url());
       client.set_keep_alive(true);
+      client.set_tcp_nodelay(true);  // as our client (a small request would wait for the delayed ACK)
       client.set_read_timeout(20, 0);
       BeatStandIn local(BeatStandIn::defaults(), 81);
       for (int r = 0; r < requests; ++r) {

@@ -119,8 +119,8 @@ TEST(UnitsAndTime, AMissingOrUnknownUnitOrAFixedPeriodBesideAPeriodParameterIsBa
   expect_bad("    period: period\n", "unit: mmHg", "unit: mmHG", "unknown unit 'mmHG'");
   expect_bad("    period: period\n", "{name: P_kpa, unit: kPa}", "{name: P_kpa}", "missing required key 'unit'");
   expect_bad("    period: period\n", "unit: ms, nominal", "unit: mss, nominal", "unknown unit 'mss'");
-  expect_bad("    period: 0.8 s\n", "x", "x", "the period is parameter 'period' of the table");
-  expect_bad("    times: returned\n    time_unit: mL\n", "x", "x", "expected a time unit");
+  expect_bad("    period: 0.8 s\n", "name: umb", "name: umb", "the period is parameter 'period' of the table");
+  expect_bad("    times: returned\n    time_unit: mL\n", "name: umb", "name: umb", "expected a time unit");
 }
 
 }  // namespace
