@@ -16,7 +16,7 @@ import os
 from ._core import Config, InputError, RunFailed, load_config, run_command
 
 __all__ = ["Config", "InputError", "RunFailed", "load_config", "run_command", "calibrate",
-           "personalize", "sensitivity", "specificity", "read_results", "Units"]
+           "personalize", "sensitivity", "specificity", "read_results", "Group", "Units"]
 
 
 class Units(dict):
@@ -80,10 +80,21 @@ def specificity(config, overrides=(), output=None, threads=None, summary=None, r
 # `therapy` joins the commands above, one line, when the command exists (issue 44).
 
 
+class Group(dict):
+    """A group of a results file: name -> Group (subgroups) or numpy array / number / str
+    (datasets); .attrs holds the group's attributes, .units the `units` attribute of each
+    dataset that has one."""
+
+    def __init__(self):
+        super().__init__()
+        self.attrs = {}
+        self.units = Units()
+
+
 def read_results(path):
-    """A results file (HDF5) as nested dicts: groups -> dict, datasets -> numpy arrays (scalars
-    as numbers, strings as str); each group's attributes under "attrs" and the units of its
-    datasets (their `units` attributes) under "units"."""
+    """A results file (HDF5) as nested Groups (dicts): datasets -> numpy arrays (scalars as
+    numbers, strings as str), with each group's attributes in .attrs and the units of its
+    datasets in .units."""
     import h5py
     import numpy as np
 
@@ -95,14 +106,15 @@ def read_results(path):
         return value
 
     def group(g):
-        out = {"attrs": {k: convert(v) for k, v in g.attrs.items()}, "units": Units()}
+        out = Group()
+        out.attrs = {k: convert(v) for k, v in g.attrs.items()}
         for key, item in g.items():
             if isinstance(item, h5py.Group):
                 out[key] = group(item)
             else:
                 out[key] = convert(item[()])
                 if "units" in item.attrs:
-                    out["units"][key] = convert(item.attrs["units"])
+                    out.units[key] = convert(item.attrs["units"])
         return out
 
     with h5py.File(os.fspath(path), "r") as f:

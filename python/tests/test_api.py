@@ -54,9 +54,13 @@ def test_bad_input_raises_input_error_with_file_line_and_column(workdir):
         cfg.run({"sigma0": -1.0})
     with pytest.raises(sh.InputError, match="unknown parameter|did you mean"):
         cfg.run({"sigma00": 1.0})
-    with pytest.raises(sh.InputError, match="sensitivity-ishigami.yaml"):
+    # The commands: an override is located at its --set, a config error at file:line:column.
+    with pytest.raises(sh.InputError, match=r"--set sensitivity\.method=sobl: .*did you mean 'sobol'"):
         sh.sensitivity("configs/sensitivity-ishigami.yaml", overrides=["sensitivity.method=sobl"],
                        output="results/x.h5")
+    with pytest.raises(sh.InputError, match=r"bad\.yaml:4:\d+: .*dtt"):
+        sh.calibrate("bad.yaml", output="results/y.h5")
+    assert not os.path.exists("results/x.h5") and not os.path.exists("results/y.h5")
 
 
 def test_a_failed_run_raises_run_failed(workdir):
@@ -76,7 +80,7 @@ def test_a_study_runs_in_process_and_its_results_read_into_numpy(workdir):
 
     def walk(group, prefix):
         for key, value in group.items():
-            if isinstance(value, dict) and key not in ("attrs", "units"):
+            if isinstance(value, dict):
                 walk(value, prefix + "/" + key)
             elif isinstance(value, np.ndarray):
                 found[prefix + "/" + key] = value
