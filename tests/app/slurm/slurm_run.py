@@ -10,9 +10,9 @@ linuxproc, no accounting), then:
  2. submits the README's Slurm script (the fenced block after "<!-- slurm-job -->", byte for
     byte) with sbatch: 2 tasks x 1 CPU, launched with srun (PMIx); its short time limit and
     `--signal=TERM@...` stop the run midway (exit 143, checkpoint kept);
- 3. submits the same script again: `--resume` runs only what is missing;
- 4. checks that the job was signalled, that the resumed job completed, that the resume loaded the
-    checkpoint, and that its JSON summary equals the serial run's (numbers to 1e-12 relative,
+ 3. submits the same script again (`--resume` runs only what is missing) until a job completes;
+ 4. checks that the first job was signalled and left its checkpoint, that a resumed job loaded
+    it, and that the final JSON summary equals the serial run's (numbers to 1e-12 relative,
     provenance and timings excepted; tests/app/mpi/run_mpi_case.py compare_json).
 Where Slurm or munge is missing or cannot start here it prints "SKIP: <why>" and exits 77 (CTest
 SKIP_RETURN_CODE). Every daemon it started is stopped by its pid at the end.
@@ -226,30 +226,36 @@ def main():
         summary = [w for i, w in enumerate(cmd) if i > 0 and cmd[i - 1] == "--summary"][0]
         reference = json.load(open(os.path.join(ref, summary)))
 
-        first = cluster.submit(script, work)
-        j1 = cluster.wait(first, 900)
-        log1 = open(os.path.join(work, "slurm-%s.out" % first)).read()
-        print("job %s: %s, exit %s, run time %s" % (first, j1.get("JobState"), j1.get("ExitCode"), j1.get("RunTime")),
-              flush=True)
-        if "143" not in j1.get("ExitCode", "") and "SIGTERM" not in log1 and "signal" not in log1.lower():
-            problems.append("the first job was not stopped by its --signal=TERM (state %s, exit %s); the study "
-                            "may have finished before the signal:\n%s" % (j1.get("JobState"), j1.get("ExitCode"),
-                                                                         log1[-2000:]))
-        checkpoint = os.path.join(work, summary.replace(".json", ".h5") + ".checkpoint")
-        if not os.path.exists(checkpoint) and not problems:
-            problems.append("the signalled job left no checkpoint %s:\n%s" % (checkpoint, log1[-2000:]))
-
-        second = cluster.submit(script, work)
-        j2 = cluster.wait(second, 1800)
-        log2 = open(os.path.join(work, "slurm-%s.out" % second)).read()
-        print("job %s: %s, exit %s, run time %s" % (second, j2.get("JobState"), j2.get("ExitCode"), j2.get("RunTime")),
-              flush=True)
-        if j2.get("JobState") != "COMPLETED":
-            problems.append("the resubmitted job did not complete:\n" + log2[-3000:])
-        else:
-            if "finished member(s) recorded" not in log2:
-                problems.append("the resumed job loaded nothing from the checkpoint:\n" + log2[-2000:])
-            compare_json(reference, json.load(open(os.path.join(work, summary))), "slurm-resume", problems)
+        # Submit until a job completes (each is stopped by its time-limit signal until then).
+        jobs = []
+        for _ in range(8):
+            job_id = cluster.submit(script, work)
+            j = cluster.wait(job_id, 600)
+            log = open(os.path.join(work, "slurm-%s.out" % job_id)).read()
+            jobs.append((job_id, j, log))
+            print("job %s: %s, exit %s, run time %s" % (job_id, j.get("JobState"), j.get("ExitCode"),
+                                                        j.get("RunTime")), flush=True)
+            if j.get("JobState") == "COMPLETED":
+                break
+            if not j.get("ExitCode", "").startswith("143"):
+                problems.append("job %s ended %s with exit %s, not by its SIGTERM (143):\n%s"
+                                % (job_id, j.get("JobState"), j.get("ExitCode"), log[-3000:]))
+                break
+            checkpoint = os.path.join(work, summary.replace(".json", ".h5") + ".checkpoint")
+            if not os.path.exists(checkpoint):
+                problems.append("job %s was signalled but left no checkpoint:\n%s" % (job_id, log[-2000:]))
+                break
+        if not problems:
+            if len(jobs) < 2:
+                problems.append("the first job completed before its time-limit signal: the study is too short "
+                                "for this machine to test the signal and the resume")
+            elif jobs[-1][1].get("JobState") != "COMPLETED":
+                problems.append("no job completed in %d submissions" % len(jobs))
+            else:
+                if not any("finished member(s) recorded" in log for _, _, log in jobs[1:]):
+                    problems.append("no resubmitted job loaded the checkpoint:\n" + jobs[-1][2][-2000:])
+                compare_json(reference, json.load(open(os.path.join(work, summary))), "slurm-resume", problems)
+                print("%d jobs: %d stopped by the signal, then completed" % (len(jobs), len(jobs) - 1))
     except RuntimeError as e:
         problems.append(str(e))
     finally:
