@@ -64,6 +64,7 @@ struct UmbridgeServer::Impl {
   httplib::Server server;
   std::thread thread;
   bool bound = false;
+  socket_t listen_socket = INVALID_SOCKET;  // the last socket httplib created for listening
 
   int input_size() const { return prototype->parameters().size(); }
   int output_size() const { return static_cast<int>(channel_index.size()) * options.frames; }
@@ -211,12 +212,13 @@ UmbridgeServer::UmbridgeServer(std::unique_ptr<model::Simulator> prototype, Serv
   m.server.set_read_timeout(static_cast<time_t>(ka), static_cast<time_t>((ka - std::floor(ka)) * 1e6));
   // An exclusive port: SO_REUSEADDR only (cpp-httplib's default adds SO_REUSEPORT, with which a
   // second server binds the same port and the kernel splits the connections between them).
-  m.server.set_socket_options([](socket_t sock) {
+  Impl* self = &m;
+  m.server.set_socket_options([self](socket_t sock) {
     int yes = 1;
     ::setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof(yes));
+    self->listen_socket = sock;
   });
 
-  Impl* self = &m;
   m.server.Get("/Info", [self](const httplib::Request&, httplib::Response& res) {
     Impl::reply(res, 200, json{{"protocolVersion", wire::kProtocolVersion}, {"models", {self->options.name}}});
   });
@@ -262,6 +264,10 @@ int UmbridgeServer::bind(const std::string& host, int port) {
     throw std::runtime_error("cannot listen on " + host + ":" + std::to_string(port) +
                              " (in use by another program, or not an address of this machine)");
   }
+  // cpp-httplib listens with a backlog of 5: a sixth simultaneous connect lost its SYN and
+  // waited for the 1 s retransmission (8 clients: 382 requests/s instead of thousands). Listening
+  // again on the bound socket raises the backlog (Linux keeps the socket, changes the queue).
+  if (impl_->listen_socket != INVALID_SOCKET) ::listen(impl_->listen_socket, 256);
   impl_->bound = true;
   return bound;
 }
