@@ -11,6 +11,7 @@
 #include "tests/app/blackbox/python_server.h"
 #include "tests/app/test_support.h"
 
+#include <Eigen/Dense>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -150,6 +151,25 @@ TEST(UmbridgeBenchmarks, CalibratingNamedOutputsOfSeveralVectorsGivesTheExactPos
   EXPECT_NEAR(j["parameters"]["y"]["value"].get<double>(), 17.0 / 18.0, 1e-9);
   EXPECT_NEAR(j["parameters"]["x"]["std"].get<double>(), 1.0 / 3.0, 1e-9);
   EXPECT_NEAR(j["parameters"]["y"]["std"].get<double>(), 1.0 / 3.0, 1e-9);
+  // Correlated noise (covariance: replaces the noises): the exact posterior with that R.
+  std::string correlated = read_file(cfg);
+  correlated.replace(correlated.find("estimate:"), 0, "  covariance: [[0.25, 0.125], [0.125, 0.25]]\n");
+  std::ostringstream out3, err3;
+  ASSERT_EQ(app::run_cli({"--log-level", "off", "calibrate", write_file(dir / "r.yaml", correlated).string(), "-o",
+                          (dir / "r.h5").string(), "--summary", (dir / "r.json").string()},
+                         out3, err3, app::blackbox::cli_models()),
+            app::kExitOk)
+      << err3.str();
+  const Eigen::Matrix2d H = (Eigen::Matrix2d() << 1, 1, 1, -1).finished();
+  const Eigen::Matrix2d Rinv = (Eigen::Matrix2d() << 0.25, 0.125, 0.125, 0.25).finished().inverse();
+  const Eigen::Matrix2d C = (Eigen::Matrix2d::Identity() + H.transpose() * Rinv * H).inverse();
+  const Eigen::Vector2d mu0(1.0, 0.5), y(3.0, 1.0);
+  const Eigen::Vector2d mean = mu0 + C * H.transpose() * Rinv * (y - H * mu0);
+  const auto jr = nlohmann::json::parse(read_file(dir / "r.json"));
+  EXPECT_NEAR(jr["parameters"]["x"]["value"].get<double>(), mean(0), 1e-9) << jr.dump(1);
+  EXPECT_NEAR(jr["parameters"]["y"]["value"].get<double>(), mean(1), 1e-9);
+  EXPECT_NEAR(jr["parameters"]["x"]["std"].get<double>(), std::sqrt(C(0, 0)), 1e-9);
+  EXPECT_NEAR(jr["parameters"]["y"]["std"].get<double>(), std::sqrt(C(1, 1)), 1e-9);
   // An output the model does not have is bad input at its key.
   std::string text = read_file(cfg);
   text.replace(text.find("\"v[1]\""), 6, "\"v[2]\"");
