@@ -7,6 +7,7 @@
 #include "observers/curve_sampler.h"
 #include "observers/global_indices.h"
 #include "observers/observation_builder.h"
+#include "observers/output_values.h"
 
 #include <algorithm>
 #include <cmath>
@@ -129,14 +130,10 @@ void parse_file_observations(const Config& config, const ConfigNode& obs,
   }
 }
 
-// Typed-in indices: `values: {EDV: {value: 142 mL, noise: 5 mL}}`.
-void parse_inline_observations(const ConfigNode& obs,
-                               const std::vector<model::Channel>& sim_channels,
-                               CalibrationProblem& out) {
-  const ConfigNode values = obs["values"];
-  if (!values.is_map()) values.fail("expected a map of index name -> {value, noise}");
+// Typed-in values: `{EDV: {value: 142 mL, noise: 5 mL}}`, in file order.
+std::vector<observers::ObservationEntry> read_entries(const ConfigNode& values, const std::string& what) {
+  if (!values.is_map()) values.fail("expected a map of " + what + " name -> {value, noise}");
   std::vector<observers::ObservationEntry> entries;
-  std::vector<std::string> names;
   for (const auto& key : values.keys()) {
     const ConfigNode e = values[key];
     e.check_keys({"value", "noise"});
@@ -145,8 +142,18 @@ void parse_inline_observations(const ConfigNode& obs,
     std::tie(entry.value, entry.unit) = number_and_unit(e.require_child("value"));
     entry.noise = parse_noise_node(e.require_child("noise"));
     entries.push_back(entry);
-    names.push_back(key);
   }
+  return entries;
+}
+
+// Typed-in indices: `values: {EDV: {value: 142 mL, noise: 5 mL}}`.
+void parse_inline_observations(const ConfigNode& obs,
+                               const std::vector<model::Channel>& sim_channels,
+                               CalibrationProblem& out) {
+  const ConfigNode values = obs["values"];
+  const auto entries = read_entries(values, "index");
+  std::vector<std::string> names;
+  for (const auto& e : entries) names.push_back(e.name);
   try {
     out.observations = observers::observations_from_entries(entries);
   } catch (const std::invalid_argument& e) {
@@ -158,6 +165,43 @@ void parse_inline_observations(const ConfigNode& obs,
     out.observer = std::make_unique<observers::GlobalIndices>(gi, sim_channels);
   } catch (const std::invalid_argument& e) {
     values.fail(e.what());
+  }
+}
+
+// Named outputs of a model that returns values (observers/output_values.h):
+// `outputs: {"T[0]": {value: 0, noise: 1}, ...}` and an optional full noise `covariance:` (rows in
+// the order of outputs:, entries in the product of the values' units), which replaces the noises.
+void parse_output_observations(const ConfigNode& obs, const std::vector<model::Channel>& sim_channels,
+                               CalibrationProblem& out) {
+  const ConfigNode values = obs["outputs"];
+  const auto entries = read_entries(values, "model output");
+  std::vector<std::string> names;
+  for (const auto& e : entries) names.push_back(e.name);
+  try {
+    auto observer = std::make_unique<observers::OutputValues>(names, sim_channels);
+    out.observations = observers::observations_from_entries(entries, observer->outputs());
+    out.observer = std::move(observer);
+  } catch (const std::invalid_argument& e) {
+    values.fail(e.what());
+  }
+  if (!obs.has("covariance")) return;
+  const ConfigNode rows = obs["covariance"];
+  const auto m = static_cast<Eigen::Index>(names.size());
+  Eigen::MatrixXd R(m, m);
+  if (!rows.is_sequence() || static_cast<Eigen::Index>(rows.size()) != m) {
+    rows.fail("expected " + std::to_string(m) + " rows of " + std::to_string(m) + " numbers");
+  }
+  for (Eigen::Index i = 0; i < m; ++i) {
+    const auto row = rows[static_cast<size_t>(i)].as<std::vector<double>>();
+    if (static_cast<Eigen::Index>(row.size()) != m) {
+      rows[static_cast<size_t>(i)].fail("expected " + std::to_string(m) + " numbers in row " + std::to_string(i + 1));
+    }
+    for (Eigen::Index j = 0; j < m; ++j) R(i, j) = row[static_cast<size_t>(j)];
+  }
+  try {
+    observers::set_covariance(out.observations, R, out.observations.display_units);
+  } catch (const std::invalid_argument& e) {
+    obs["covariance"].fail(e.what());
   }
 }
 
@@ -298,12 +342,16 @@ CalibrationProblem parse_calibration_problem(const Config& config,
   const auto sim_channels = sim->channels();
 
   const ConfigNode obs = root.require_child("observations");
-  obs.check_keys({"file", "indices", "curves", "align", "noise", "values"});
+  obs.check_keys({"file", "indices", "curves", "align", "noise", "values", "outputs", "covariance"});
   const bool from_file = obs.has("file") || !observation_file.empty();
-  if (from_file == obs.has("values")) {
-    obs.fail("give either 'file:' (measured curves) or 'values:' (typed-in indices), not both");
+  if (static_cast<int>(from_file) + obs.has("values") + obs.has("outputs") != 1) {
+    obs.fail("give one of 'file:' (measured curves), 'values:' (typed-in indices) or 'outputs:' "
+             "(typed-in named outputs of the model)");
   }
-  if (from_file) {
+  if (obs.has("covariance") && !obs.has("outputs")) obs["covariance"].fail("covariance: goes with outputs:");
+  if (obs.has("outputs")) {
+    parse_output_observations(obs, sim_channels, out);
+  } else if (from_file) {
     parse_file_observations(config, obs, sim_channels, observation_file, out);
   } else {
     parse_inline_observations(obs, sim_channels, out);

@@ -10,6 +10,9 @@
 //     noise: {EDV: 3 mL, ESV: 3 mL, EF: 0.02, P_max: 3 mmHg, V_lv: 3 mL, default: 5 %}
 //   # or, without a file:
 //   #  values: {EDV: {value: 142 mL, noise: 5 mL}, EF: {value: 58 %, noise: 0.02}}
+//   # or named outputs of a model that returns values (observers/output_values.h):
+//   #  outputs: {"y[0]": {value: 0.1, noise: 1}, "y[1]": {value: 4, noise: 1}}
+//   #  covariance: [[1, 0.5], [0.5, 1]]   # optional full noise covariance (replaces the noises)
 //   estimate:
 //     sigma0: {prior: 1.0e5, spread: 30 %, transform: log}      # prior defaults to the config value
 //     R_p:    {spread: "1.0e7 Pa s/m^3", transform: logit, bounds: [1.0e6, 2.0e8]}

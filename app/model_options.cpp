@@ -1,5 +1,8 @@
 #include "app/model_options.h"
 
+#include <nlohmann/json.hpp>
+#include <yaml-cpp/yaml.h>
+
 #include <filesystem>
 
 namespace sigmaheart::app {
@@ -17,6 +20,46 @@ std::vector<double> ConfigOptionReader::quantities(const std::string& key,
 }
 
 
+
+namespace {
+
+// A YAML value as JSON: a scalar that reads as an integer, a number or true/false becomes one
+// (unless it was quoted), null stays null, everything else is a string.
+nlohmann::json to_json(const YAML::Node& node) {
+  switch (node.Type()) {
+    case YAML::NodeType::Map: {
+      nlohmann::json j = nlohmann::json::object();
+      for (const auto& kv : node) j[kv.first.as<std::string>()] = to_json(kv.second);
+      return j;
+    }
+    case YAML::NodeType::Sequence: {
+      nlohmann::json j = nlohmann::json::array();
+      for (const auto& v : node) j.push_back(to_json(v));
+      return j;
+    }
+    case YAML::NodeType::Scalar: {
+      const std::string text = node.Scalar();
+      if (node.Tag() == "!") return text;  // quoted: a string
+      long long i = 0;
+      double d = 0.0;
+      bool b = false;
+      if (YAML::convert<long long>::decode(node, i)) return i;
+      if (YAML::convert<double>::decode(node, d)) return d;
+      if (YAML::convert<bool>::decode(node, b)) return b;
+      return text;
+    }
+    default:
+      return nullptr;
+  }
+}
+
+}  // namespace
+
+std::string ConfigOptionReader::json_text(const std::string& key) const {
+  const ConfigNode value = node_[key];
+  if (!value.defined()) return "{}";
+  return to_json(value.yaml()).dump();
+}
 
 int ConfigOptionReader::list_size(const std::string& key) const {
   const ConfigNode list = node_[key];

@@ -41,6 +41,7 @@ class ConfigOptionReader final : public model::OptionReader {
     return node_.optional<bool>(key, fallback);
   }
   int list_size(const std::string& key) const override;
+  std::string json_text(const std::string& key) const override;
   std::unique_ptr<model::OptionReader> item(const std::string& key, int i) const override;
   // The directory of the config file (empty when the section came from a `--set`).
   std::string base_directory() const override;

@@ -3,6 +3,7 @@
 #include "estimation/enum_names.h"
 #include "estimation/forward_model.h"
 #include "observers/global_indices.h"
+#include "observers/output_values.h"
 
 #include <array>
 #include <cstdint>
@@ -117,15 +118,24 @@ void parse_simulator_study(const Config& config, const ConfigNode& node, Sensiti
     s.prior.parameters.push_back(parse_range(params[key], space[space.index_or_throw(key)]));
   }
   if (s.prior.parameters.empty()) params.fail("no parameters to study");
-  observers::GlobalIndicesOptions go;
-  if (node.has("outputs")) go.indices = node["outputs"].as<std::vector<std::string>>();
+  if (node.has("outputs") && node.has("model_outputs")) {
+    node["model_outputs"].fail("give either outputs: (heart indices) or model_outputs: (named outputs of the model)");
+  }
+  const std::string key = node.has("model_outputs") ? "model_outputs" : node.has("outputs") ? "outputs" : "parameters";
   try {
     auto simulator = config.simulator.make();
-    const observers::GlobalIndices observer(go, simulator->channels());
-    s.model = std::make_unique<estimation::SimulatorForwardModel>(*simulator, observer,
-                                                                  s.prior.names());
+    std::unique_ptr<observers::Observer> observer;
+    if (node.has("model_outputs")) {  // any named output vector or element (observers/output_values.h)
+      observer = std::make_unique<observers::OutputValues>(node["model_outputs"].as<std::vector<std::string>>(),
+                                                           simulator->channels());
+    } else {
+      observers::GlobalIndicesOptions go;
+      if (node.has("outputs")) go.indices = node["outputs"].as<std::vector<std::string>>();
+      observer = std::make_unique<observers::GlobalIndices>(go, simulator->channels());
+    }
+    s.model = std::make_unique<estimation::SimulatorForwardModel>(*simulator, *observer, s.prior.names());
   } catch (const std::invalid_argument& e) {
-    node[node.has("outputs") ? "outputs" : "parameters"].fail(e.what());
+    node[key].fail(e.what());
   }
 }
 
@@ -206,7 +216,7 @@ void SensitivitySetup::set_ensemble(const estimation::EnsembleOptions& options) 
 
 SensitivitySetup parse_sensitivity(const Config& config) {
   const ConfigNode node = config.file.root().require_child("sensitivity");
-  node.check_keys({"method", "model", "outputs", "seed", "parameters", "ishigami", "g_function",
+  node.check_keys({"method", "model", "outputs", "model_outputs", "seed", "parameters", "ishigami", "g_function",
                    "oat", "morris", "sobol", "ensemble"});
   SensitivitySetup s;
   s.method = *estimation::enum_from_string(
@@ -222,7 +232,7 @@ SensitivitySetup parse_sensitivity(const Config& config) {
     parse_simulator_study(config, node, s);
   } else {
     parse_test_function(node, s);
-    if (node.has("parameters") || node.has("outputs")) {
+    if (node.has("parameters") || node.has("outputs") || node.has("model_outputs")) {
       node.fail("parameters and outputs are fixed for the test function '" + s.model_kind + "'");
     }
   }

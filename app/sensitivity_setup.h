@@ -7,6 +7,8 @@
 //     method: sobol                 # oat | morris | sobol
 //     model: simulator              # simulator | ishigami | g-function
 //     outputs: [EDV, ESV, EF, P_max]  # global indices (observers/global_indices.h); default: all
+//     model_outputs: [log_density, "T[1]"]  # or: named outputs of a model that returns values
+//                                   # (observers/output_values.h), e.g. a UM-Bridge benchmark
 //     seed: 7                       # default: the config's seed, else 1
 //     parameters:                   # simulator only; nominal = the config's value
 //       sigma0: {lower: 8.0e4, upper: 2.0e5}        # bounds in the parameter's SI unit (or "80 kPa")

@@ -2,7 +2,9 @@
 // external-program runner (member directory, parameter file, spawn, wait, CSV read, clean-up)
 // around a trivial program, against spawning the same program alone; and a UM-Bridge Evaluate on
 // loopback against the same run in process. Target: under 5 ms per member beyond the program's
-// own run time. Run: build/bench/blackbox_bench
+// own run time. The server's throughput with 1, 2 and 8 concurrent clients (2 evaluation slots);
+// the lumped-sphere beat in process, against which bench/python_api_bench.py gives the Python
+// API's overhead per call. Run: build/bench/blackbox_bench
 #include "app/blackbox/external_model.h"
 #include "app/blackbox/process.h"
 #include "app/blackbox/register.h"
@@ -12,8 +14,12 @@
 #include <benchmark/benchmark.h>
 #include <unistd.h>
 
+#include <httplib.h>
+#include <nlohmann/json.hpp>
+
 #include <filesystem>
 #include <fstream>
+#include <thread>
 
 namespace {
 
@@ -132,6 +138,61 @@ void BM_FlatInProcess(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_FlatInProcess)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// The server under load: `clients` threads, each with its own keep-alive connection, send 50
+// Evaluate requests each per iteration; 2 evaluation slots (the default of `serve`). Reported:
+// requests per second.
+void BM_ServerThroughput(benchmark::State& state) {
+  const int clients = static_cast<int>(state.range(0));
+  const int per_client = 50;
+  bb::ServeOptions o;
+  o.frames = 50;
+  o.threads = 2;
+  o.connections = 16;
+  bb::UmbridgeServer server(std::make_unique<Flat>(), o);
+  const int port = server.bind("127.0.0.1", 0);
+  server.start();
+  const std::string url = "http://127.0.0.1:" + std::to_string(port);
+  const std::string body = R"({"name": "forward", "input": [[1, 1, 1, 1]], "config": {}})";
+  long failed = 0;
+  for (auto _ : state) {
+    std::vector<std::thread> threads;
+    std::vector<long> bad(static_cast<size_t>(clients), 0);
+    for (int c = 0; c < clients; ++c) {
+      threads.emplace_back([&, c] {
+        httplib::Client client(url);
+        client.set_keep_alive(true);
+        client.set_tcp_nodelay(true);
+        for (int r = 0; r < per_client; ++r) {
+          auto res = client.Post("/Evaluate", body, "application/json");
+          if (!res || res->status != 200) ++bad[static_cast<size_t>(c)];
+        }
+      });
+    }
+    for (auto& t : threads) t.join();
+    for (long b : bad) failed += b;
+  }
+  if (failed > 0) state.SkipWithError("some requests failed");
+  state.counters["requests/s"] =
+      benchmark::Counter(static_cast<double>(state.iterations()) * clients * per_client, benchmark::Counter::kIsRate);
+  server.stop();
+}
+BENCHMARK(BM_ServerThroughput)->Arg(1)->Arg(2)->Arg(8)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// One beat of configs/healthy.yaml in process (a simulator made per call, as the Python API's
+// Config.run does): bench/python_api_bench.py times the same call from Python.
+void BM_SphereBeatInProcess(benchmark::State& state) {
+  const app::Config c = app::load_config(fs::path(SIGMAHEART_SOURCE_DIR) / "configs" / "healthy.yaml", {},
+                                         bb::cli_models());
+  const Eigen::VectorXd theta = c.simulator.parameters.nominal();
+  for (auto _ : state) {
+    auto sim = c.simulator.make();
+    const auto r = sim->run(theta);
+    if (!r.status.ok()) state.SkipWithError(r.status.message.c_str());
+    benchmark::DoNotOptimize(r.trajectory.values.data());
+  }
+}
+BENCHMARK(BM_SphereBeatInProcess)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace
 

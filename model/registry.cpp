@@ -47,6 +47,11 @@ bool OptionReader::boolean(const std::string& key, bool fallback) const {
   return fallback;
 }
 
+std::string OptionReader::json_text(const std::string& key) const {
+  if (has(key)) fail(key, "this options reader holds no structured values");
+  return "{}";
+}
+
 int OptionReader::list_size(const std::string& key) const {
   if (has(key)) fail(key, "this options reader holds no lists");
   return 0;
@@ -138,6 +143,7 @@ class DefaultedOptions final : public OptionReader {
     return *d == "true";
   }
   int list_size(const std::string& key) const override { return base_.list_size(key); }
+  std::string json_text(const std::string& key) const override { return base_.json_text(key); }
   std::unique_ptr<OptionReader> item(const std::string& key, int i) const override { return base_.item(key, i); }
   std::string base_directory() const override { return base_.base_directory(); }
   [[noreturn]] void fail(const std::string& key, const std::string& message) const override {

@@ -91,6 +91,9 @@ class OptionReader {
   virtual int list_size(const std::string& key) const;
   // Item i (0-based, < list_size(key)) of the list at `key`, as a section of its own.
   virtual std::unique_ptr<OptionReader> item(const std::string& key, int i) const;
+  // The value at `key` as JSON text, passed through to a model that reads it itself (a UM-Bridge
+  // request's "config"); absent: "{}". Numbers stay numbers, true/false booleans, null null.
+  virtual std::string json_text(const std::string& key) const;
   // The directory relative paths written in this section are relative to (the config file's);
   // empty: the working directory.
   virtual std::string base_directory() const { return {}; }

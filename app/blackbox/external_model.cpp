@@ -62,7 +62,8 @@ model::Trajectory read_output_h5(const ExternalOptions& o, const fs::path& file)
   };
   if (!h5.exists("/time")) throw std::runtime_error("no dataset /time");
   t.times = h5.read_vector("/time") * model::units::convert(1.0, unit_of("/time", "s"), "s");
-  for (const auto& c : o.channels) {
+  for (size_t ci = 0; ci < o.channels.size(); ++ci) {
+    const model::Channel& c = o.channels[ci];
     const std::string path = "/" + c.name;
     if (!h5.exists(path)) continue;  // reported as a missing column below
     const Eigen::VectorXd v = h5.read_vector(path);
@@ -70,7 +71,8 @@ model::Trajectory read_output_h5(const ExternalOptions& o, const fs::path& file)
       throw std::runtime_error("dataset " + path + " has " + std::to_string(v.size()) + " values, /time has " +
                                std::to_string(t.times.size()));
     }
-    const std::string unit = unit_of(path, c.unit);
+    // No `units` attribute: the unit declared in the table (converted like any other).
+    const std::string unit = unit_of(path, ci < o.channel_units.size() ? o.channel_units[ci].unit : c.unit);
     t.channels.push_back({c.name, c.unit, "", "", 0});
     t.values.conservativeResize(v.size(), t.values.cols() + 1);
     t.values.col(t.values.cols() - 1) = v * (unit == c.unit ? 1.0 : model::units::convert(1.0, unit, c.unit));
@@ -264,29 +266,36 @@ Status read_state_file(const ExternalOptions& o, const fs::path& file, double& t
 }  // namespace
 
 std::string parameter_file_text(const model::ParameterSpace& parameters,
-                                const Eigen::Ref<const Eigen::VectorXd>& theta, ParameterFormat format) {
+                                const Eigen::Ref<const Eigen::VectorXd>& theta, ParameterFormat format,
+                                const std::vector<DeclaredUnit>& declared) {
   const int n = parameters.size();
+  const bool as_declared = static_cast<int>(declared.size()) == n;
+  std::vector<double> values(static_cast<size_t>(n));
+  std::vector<std::string> units(static_cast<size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    const auto k = static_cast<size_t>(i);
+    values[k] = as_declared ? theta(i) / declared[k].factor : theta(i);
+    units[k] = as_declared ? declared[k].unit : parameters[i].unit;
+  }
   if (format == ParameterFormat::kJson) {
     nlohmann::ordered_json j;
     j["parameters"] = nlohmann::ordered_json::object();
-    for (int i = 0; i < n; ++i) j["parameters"][parameters[i].name] = theta(i);
+    for (int i = 0; i < n; ++i) j["parameters"][parameters[i].name] = values[static_cast<size_t>(i)];
     j["names"] = parameters.names();
-    j["values"] = std::vector<double>(theta.data(), theta.data() + n);
-    std::vector<std::string> units;
-    for (const auto& p : parameters.all()) units.push_back(p.unit);
+    j["values"] = values;
     j["units"] = units;
     return j.dump(2) + "\n";
   }
   std::ostringstream s;
-  s << "# parameters in SI; values written with the shortest text that reads back exactly\n";
+  s << "# parameters in the units below; values written with the shortest text that reads back exactly\n";
   s << "parameters:\n";
-  for (int i = 0; i < n; ++i) s << "  " << parameters[i].name << ": " << io::format_exact(theta(i)) << "\n";
+  for (int i = 0; i < n; ++i) s << "  " << parameters[i].name << ": " << io::format_exact(values[static_cast<size_t>(i)]) << "\n";
   s << "names: [";
   for (int i = 0; i < n; ++i) s << (i ? ", " : "") << parameters[i].name;
   s << "]\nvalues: [";
-  for (int i = 0; i < n; ++i) s << (i ? ", " : "") << io::format_exact(theta(i));
+  for (int i = 0; i < n; ++i) s << (i ? ", " : "") << io::format_exact(values[static_cast<size_t>(i)]);
   s << "]\nunits: [";
-  for (int i = 0; i < n; ++i) s << (i ? ", " : "") << yaml_quoted(parameters[i].unit);
+  for (int i = 0; i < n; ++i) s << (i ? ", " : "") << yaml_quoted(units[static_cast<size_t>(i)]);
   s << "]\n";
   return s.str();
 }
@@ -325,7 +334,7 @@ model::RunResult ExternalSimulator::run(const Eigen::Ref<const Eigen::VectorXd>&
       dir / (o.parameter_format == ParameterFormat::kJson ? "params.json" : "params.yaml");
   {
     std::ofstream f(params);
-    f << parameter_file_text(parameters_, theta, o.parameter_format);
+    f << parameter_file_text(parameters_, theta, o.parameter_format, o.parameter_units);
     if (!f) {
       result.status = Status::Error(StatusCode::kProcessFailed,
                                     "external simulator: cannot write " + params.string());
@@ -342,7 +351,7 @@ model::RunResult ExternalSimulator::run(const Eigen::Ref<const Eigen::VectorXd>&
   p.stderr_file = dir / "stderr.txt";
   p.timeout = o.timeout;
   const ProcessResult r = run_process(p);
-  result.info.period = o.period;
+  result.info.period = o.period.of(theta);
   if (!r.started) {
     result.status = Status::Error(StatusCode::kProcessFailed, failure_message(r.describe(o.timeout), dir));
     return result;
@@ -361,7 +370,7 @@ model::RunResult ExternalSimulator::run(const Eigen::Ref<const Eigen::VectorXd>&
     result.status = Status::Error(StatusCode::kBadOutput, failure_message(read.message, dir));
     return result;
   }
-  if (o.period <= 0.0 && result.trajectory.samples() > 1) {
+  if (!o.period.defined() && result.trajectory.samples() > 1) {
     result.info.period = result.trajectory.times(result.trajectory.samples() - 1) - result.trajectory.times(0);
   }
   if (!o.keep_workdirs) fs::remove_all(dir, ec);
@@ -388,7 +397,7 @@ Status ExternalSteppableSimulator::step(const model::State* in, const Eigen::Ref
   std::string member;
   if (Status s = make_member_dir(o, clone_id_, counter_, dir, member); !s.ok()) return s;
   const fs::path params = dir / (o.parameter_format == ParameterFormat::kJson ? "params.json" : "params.yaml");
-  if (Status s = write_text(params, parameter_file_text(parameters_, theta, o.parameter_format)); !s.ok()) return s;
+  if (Status s = write_text(params, parameter_file_text(parameters_, theta, o.parameter_format, o.parameter_units)); !s.ok()) return s;
   std::string state_text = state_header(o, false);
   if (in != nullptr) {
     state_text += io::format_exact(in->time);
@@ -454,8 +463,9 @@ model::RunResult ExternalSteppableSimulator::run(const Eigen::Ref<const Eigen::V
   t.channels = o.channels;
   t.times.resize(o.frames);
   t.values.resize(o.frames, static_cast<Eigen::Index>(o.channels.size()));
+  const double period = o.period.of(theta);  // the model's own: a studied period moves the axis
   for (int k = 0; k < o.frames; ++k) {
-    const double tk = k == o.frames - 1 ? o.period : o.period * k / (o.frames - 1);
+    const double tk = k == o.frames - 1 ? period : period * k / (o.frames - 1);
     if (k > 0) {
       model::State next;
       result.status = step(&state, theta, tk, next, channels);
@@ -469,7 +479,7 @@ model::RunResult ExternalSteppableSimulator::run(const Eigen::Ref<const Eigen::V
     t.times(k) = tk;
     t.values.row(k) = channels.transpose();
   }
-  result.info.period = o.period;
+  result.info.period = period;
   return result;
 }
 
@@ -514,7 +524,6 @@ model::ModelBuild configure_external(const model::OptionReader& numerics) {
       }
     }
     o->state = read_channel_table(numerics, "state");
-    if (!numerics.has("period")) numerics.fail("period", "missing required key 'period' (steppable: run() samples one period)");
     o->frames = numerics.integer("frames", o->frames);
     if (o->frames < 2) numerics.fail("frames", "expected frames >= 2");
   } else {
@@ -569,13 +578,13 @@ model::ModelBuild configure_external(const model::OptionReader& numerics) {
   }
   o->timeout = numerics.quantity("timeout", "s", o->timeout);
   if (!(o->timeout > 0.0)) numerics.fail("timeout", "expected a time limit > 0 s");
-  o->period = numerics.quantity("period", "s", 0.0);
-  if (o->period < 0.0 || (numerics.has("period") && o->period == 0.0)) {
-    numerics.fail("period", "expected a period > 0 s");
-  }
   o->keep_workdirs = numerics.boolean("keep_workdirs", false);
   model::ParameterSpace parameters = read_parameter_table(numerics);
+  // steppable: run() samples one period, so it is required.
+  o->period = read_period(numerics, parameters, o->steppable);
   o->channels = read_channel_table(numerics);
+  o->parameter_units = declared_units(numerics, "parameters");
+  o->channel_units = declared_units(numerics, "channels");
   std::shared_ptr<const ExternalOptions> shared = o;
   return model::ModelBuild(std::move(parameters), [shared](const model::ParameterSpace& p) -> std::unique_ptr<model::Simulator> {
     if (shared->steppable) return std::make_unique<ExternalSteppableSimulator>(shared, p);

@@ -43,6 +43,7 @@
 #pragma once
 
 #include "app/blackbox/command_template.h"
+#include "app/blackbox/tables.h"
 #include "model/registry.h"
 
 #include <filesystem>
@@ -61,9 +62,11 @@ struct ExternalOptions {
   ParameterFormat parameter_format = ParameterFormat::kJson;
   std::string output = "curves.csv";  // file name inside the member directory
   double timeout = 60.0;              // [s]
-  double period = 0.0;                // [s]; 0: not declared
+  PeriodSource period;                // fixed, a parameter, or none (the output's time span)
   bool keep_workdirs = false;
   std::vector<model::Channel> channels;
+  std::vector<DeclaredUnit> parameter_units;  // per parameter: the unit the program reads
+  std::vector<DeclaredUnit> channel_units;    // per channel: the default unit of an HDF5 dataset
   // The steppable protocol (steppable: true).
   bool steppable = false;
   CommandTemplate step_command;
@@ -127,8 +130,10 @@ class ExternalSteppableSimulator final : public model::SteppableSimulator {
 // reader (file:line:column). The program must exist and be executable now.
 model::ModelBuild configure_external(const model::OptionReader& numerics);
 
-// The parameter file of one run: names, values (SI, shortest round-trip text) and units.
+// The parameter file of one run: names, values (shortest round-trip text) and units, each value
+// in its declared unit (theta_i / factor_i; `declared` empty: SI, as in the ParameterSpace).
 std::string parameter_file_text(const model::ParameterSpace& parameters,
-                                const Eigen::Ref<const Eigen::VectorXd>& theta, ParameterFormat format);
+                                const Eigen::Ref<const Eigen::VectorXd>& theta, ParameterFormat format,
+                                const std::vector<DeclaredUnit>& declared = {});
 
 }  // namespace sigmaheart::app::blackbox

@@ -67,7 +67,37 @@ void check_family(const model::OptionReader& item, const std::string& family,
   item.fail("family", msg);
 }
 
+DeclaredUnit declared(const std::string& unit) {
+  const auto si = model::units::to_si(unit);
+  return {unit, si ? si->factor : 1.0};
+}
+
+std::string si_unit_of(const std::string& unit) {
+  const auto si = model::units::to_si(unit);
+  return si ? si->si_unit : unit;
+}
+
 }  // namespace
+
+std::vector<int> input_vectors(const model::OptionReader& numerics, const std::string& key) {
+  std::vector<int> out;
+  const int n = numerics.list_size(key);
+  for (int i = 0; i < n; ++i) out.push_back(numerics.item(key, i)->integer("input", 0));
+  return out;
+}
+
+std::vector<DeclaredUnit> declared_units(const model::OptionReader& numerics, const std::string& key) {
+  std::vector<DeclaredUnit> out;
+  const int n = numerics.list_size(key);
+  for (int i = 0; i < n; ++i) out.push_back(declared(numerics.item(key, i)->text("unit", "")));
+  return out;
+}
+
+Eigen::VectorXd unit_factors(const std::vector<DeclaredUnit>& declared) {
+  Eigen::VectorXd f(static_cast<Eigen::Index>(declared.size()));
+  for (size_t i = 0; i < declared.size(); ++i) f(static_cast<Eigen::Index>(i)) = declared[i].factor;
+  return f;
+}
 
 bool known_unit(const std::string& unit) {
   if (model::units::to_si(unit)) return true;
@@ -76,7 +106,8 @@ bool known_unit(const std::string& unit) {
 }
 
 model::ParameterSpace read_parameter_table(const model::OptionReader& numerics,
-                                           const std::string& key) {
+                                           const std::string& key, bool input_vectors) {
+  if (!numerics.has(key)) numerics.fail(key, "missing required key '" + key + "' (a list of {name, unit, nominal, lower, upper})");
   const int n = numerics.list_size(key);
   if (n == 0) {
     numerics.fail(key, "expected a list of parameters ({name, unit, nominal, lower, upper}), one "
@@ -87,7 +118,10 @@ model::ParameterSpace read_parameter_table(const model::OptionReader& numerics,
   for (int i = 0; i < n; ++i) {
     const auto item = numerics.item(key, i);
     if (!item->is_map()) item->fail("", "expected a map {name, unit, nominal, lower, upper}");
-    item->check_keys({"name", "unit", "nominal", "lower", "upper", "doc", "family", "segment"});
+    std::vector<std::string> keys = {"name", "unit", "nominal", "lower", "upper", "doc", "family", "segment"};
+    if (input_vectors) keys.push_back("input");
+    item->check_keys(keys);
+    if (item->integer("input", 0) < 0) item->fail("input", "expected an input vector index >= 0");
     model::Parameter p;
     p.name = item->text("name", "");
     if (!identifier(p.name)) {
@@ -104,16 +138,19 @@ model::ParameterSpace read_parameter_table(const model::OptionReader& numerics,
     for (const char* required : {"nominal", "lower", "upper"}) {
       if (!item->has(required)) item->fail(required, std::string("missing required key '") + required + "'");
     }
-    // Values written with a unit are converted to the parameter's unit.
-    p.nominal = item->quantity("nominal", p.unit, 0.0);
-    p.lower = item->quantity("lower", p.unit, 0.0);
-    p.upper = item->quantity("upper", p.unit, 0.0);
+    // Values written with a unit are converted to the declared unit, then to SI.
+    const DeclaredUnit d = declared(p.unit);
+    p.nominal = d.factor * item->quantity("nominal", p.unit, 0.0);
+    p.lower = d.factor * item->quantity("lower", p.unit, 0.0);
+    p.upper = d.factor * item->quantity("upper", p.unit, 0.0);
+    const std::string written = p.unit;
+    p.unit = si_unit_of(p.unit);
     if (!(p.lower < p.upper)) {
-      item->fail("upper", "expected upper > lower (" + std::to_string(p.lower) + " " + p.unit + ")");
+      item->fail("upper", "expected upper > lower (" + std::to_string(p.lower / d.factor) + " " + p.unit + ")");
     }
     if (p.nominal < p.lower || p.nominal > p.upper) {
-      item->fail("nominal", "nominal value outside [lower, upper] = [" + std::to_string(p.lower) +
-                                ", " + std::to_string(p.upper) + "] " + p.unit);
+      item->fail("nominal", "nominal value outside [lower, upper] = [" + std::to_string(p.lower / d.factor) +
+                                ", " + std::to_string(p.upper / d.factor) + "] " + written);
     }
     p.doc = item->text("doc", "parameter of the black-box model (declared in the config)");
     p.family = item->text("family", "");
@@ -127,6 +164,7 @@ model::ParameterSpace read_parameter_table(const model::OptionReader& numerics,
 
 std::vector<model::Channel> read_channel_table(const model::OptionReader& numerics,
                                                const std::string& key) {
+  if (!numerics.has(key)) numerics.fail(key, "missing required key '" + key + "' (a list of {name, unit})");
   const int n = numerics.list_size(key);
   if (n == 0) numerics.fail(key, "expected a list of output channels ({name, unit})");
   std::vector<model::Channel> channels;
@@ -158,6 +196,37 @@ std::vector<model::Channel> read_channel_table(const model::OptionReader& numeri
     channels.push_back(std::move(c));
   }
   return channels;
+}
+
+PeriodSource read_period(const model::OptionReader& numerics, const model::ParameterSpace& parameters,
+                         bool required) {
+  PeriodSource out;
+  const auto family = parameters.find("period");
+  if (!numerics.has("period")) {
+    if (family) {
+      out.parameter = *family;
+      return out;
+    }
+    if (required) numerics.fail("period", "missing required key 'period' (a time such as 0.8 s, or the name of a parameter)");
+    return out;
+  }
+  const std::string text = numerics.text("period", "");
+  if (const auto index = parameters.index(text)) {
+    if (parameters[*index].unit != "s") {
+      numerics.fail("period", "parameter '" + text + "' is in " + parameters[*index].unit + ", not a time");
+    }
+    out.parameter = *index;
+    return out;
+  }
+  if (family) {
+    numerics.fail("period", "the period is parameter '" + parameters[*family].name +
+                                "' of the table (family period); a fixed period would put the curves "
+                                "on a time axis the model did not use when it is studied: write `period: " +
+                                parameters[*family].name + "`");
+  }
+  out.fixed = numerics.quantity("period", "s", 0.0);
+  if (!(out.fixed > 0.0)) numerics.fail("period", "expected a period > 0 s or the name of a parameter");
+  return out;
 }
 
 }  // namespace sigmaheart::app::blackbox

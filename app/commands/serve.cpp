@@ -1,9 +1,11 @@
 // `sigmaheart serve CONFIG [--port 4242] [--host 127.0.0.1]`: the config's simulator (any
 // registered model) as a UM-Bridge model (app/blackbox/umbridge.h, docs/architecture.md s.9).
 // Its input is the full parameter vector in SI, in the order `sigmaheart params CONFIG` prints;
-// its output is the curves (each channel at --frames evenly spaced times of the run). Evaluations
-// run concurrently on --threads HTTP worker threads, each on its own clone of the simulator. Runs
-// until SIGINT or SIGTERM, then stops accepting requests, lets running ones finish and exits 0.
+// its outputs are the curves (each channel at --frames evenly spaced times of the run) and those
+// times. At most --threads evaluations run at once, each on its own clone of the simulator; up to
+// --connections connections are served at once on their own threads (an idle keep-alive
+// connection is closed after --keep-alive seconds). The port is exclusive: a port in use is exit 2
+// with the reason. Runs until SIGINT or SIGTERM, then lets running requests finish and exits 0.
 #include "app/blackbox/umbridge.h"
 #include "app/commands/commands.h"
 #include "app/config.h"
@@ -11,6 +13,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <csignal>
@@ -35,6 +38,8 @@ struct ServeCommandOptions {
   int frames = 50;
   std::vector<std::string> channels;
   int threads = 2;
+  int connections = 64;
+  double keep_alive = 5.0;
 };
 
 int run_serve(const ServeCommandOptions& o, CommandContext& ctx) {
@@ -45,6 +50,8 @@ int run_serve(const ServeCommandOptions& o, CommandContext& ctx) {
   serve.frames = o.frames;
   serve.channels = o.channels;
   serve.threads = o.threads;
+  serve.connections = std::max(o.connections, o.threads);
+  serve.keep_alive = o.keep_alive;
   std::unique_ptr<blackbox::UmbridgeServer> server;
   try {
     server = std::make_unique<blackbox::UmbridgeServer>(config.simulator.make(), serve);
@@ -65,9 +72,9 @@ int run_serve(const ServeCommandOptions& o, CommandContext& ctx) {
   ::sigaction(SIGTERM, &action, &old_term);
   server->start();
   ctx.out << "serving UM-Bridge model '" << o.name << "' (" << config.simulator.model << ", "
-          << server->input_size() << " inputs: the parameters in SI, " << server->output_size()
-          << " outputs: " << (o.channels.empty() ? std::string("all channels") : std::to_string(o.channels.size()) + " channels")
-          << " x " << o.frames << " frames) at http://" << o.host << ":" << port
+          << server->input_size() << " inputs: the parameters in SI; outputs: " << server->output_size()
+          << " = " << (o.channels.empty() ? std::string("all channels") : std::to_string(o.channels.size()) + " channels")
+          << " x " << o.frames << " frames, then their " << o.frames << " times [s]) at http://" << o.host << ":" << port
           << "; stop with Ctrl-C\n"
           << std::flush;
   while (!stop_requested) std::this_thread::sleep_for(std::chrono::milliseconds(50));
@@ -95,8 +102,14 @@ void register_serve(CLI::App& app, CommandContext& ctx) {
       ->capture_default_str();
   sub->add_option("--channels", opts->channels, "Channels in the output (default: all), e.g. V_lv,P_lv")
       ->delimiter(',');
-  sub->add_option("--threads", opts->threads, "Concurrent evaluations (HTTP worker threads)")
+  sub->add_option("--threads", opts->threads, "Concurrent evaluations (each on its own clone)")
       ->check(CLI::Range(1, 256))
+      ->capture_default_str();
+  sub->add_option("--connections", opts->connections, "Connections served at once (one thread each)")
+      ->check(CLI::Range(1, 1024))
+      ->capture_default_str();
+  sub->add_option("--keep-alive", opts->keep_alive, "Seconds an idle connection is kept open")
+      ->check(CLI::Range(0.1, 3600.0))
       ->capture_default_str();
   add_set_option(*sub, opts->overrides);
   sub->callback([opts, &ctx] { ctx.run = [opts, &ctx] { return run_serve(*opts, ctx); }; });

@@ -50,7 +50,9 @@ class ErrorCollector {
  private:
   bool caused_by_removal(const InputError& e) const {
     return std::any_of(removed_.begin(), removed_.end(), [&](const std::string& key) {
-      return e.message().rfind("missing required key '" + key + "'", 0) == 0;
+      // "missing required key 'k'" (or "... key 'a' or 'k'") after k was removed: no new error.
+      return e.message().rfind("missing required key ", 0) == 0 &&
+             e.message().find("'" + key + "'") < e.message().find(" (");
     });
   }
   bool seen(const InputError& e) const {
