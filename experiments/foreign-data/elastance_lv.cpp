@@ -31,11 +31,7 @@ double ElastanceLv::activation(double t) const {
 }
 
 double ElastanceLv::atrial_activation(double t) const {
-  const double T = period();
-  double s = t + p_.t_la_onset;  // time since atrial onset
-  s -= T * std::floor(s / T);
-  if (s >= p_.T_la) return 0.0;
-  return 0.5 * (1.0 - std::cos(2.0 * std::numbers::pi * s / p_.T_la));
+  return raised_cosine_atrium(t, period(), p_);
 }
 
 double ElastanceLv::lv_pressure(double t, double V) const {
@@ -52,24 +48,11 @@ Eigen::VectorXd ElastanceLv::initial_state() const {
 }
 
 Sample ElastanceLv::observe(double t, const Eigen::VectorXd& y) const {
-  Sample s = sample_with_volumes(t, y(0), y(1));
-  const double P_c = y(2);
-  s.P_lv = lv_pressure(t, s.V_lv);
-  const double E_la = p_.E_la_min + p_.kick * atrial_activation(t) * (p_.E_la_max - p_.E_la_min);
-  s.P_la = E_la * (s.V_la - p_.V0_la);
-  s.Q_pv = (p_.P_pv - s.P_la) / p_.R_pv;
-  s.Q_mv = std::max(s.P_la - s.P_lv, 0.0) / p_.R_mv;
-  s.Q_av = std::max(s.P_lv - P_c, 0.0) / (p_.R_av + p_.Zc);
-  s.P_ao = P_c + p_.Zc * s.Q_av;
-  s.Q_per = (P_c - p_.P_ven) / p_.R_sys;
-  return s;
+  return three_state_sample(t, y, lv_pressure(t, y(0)), atrial_activation(t), p_);
 }
 
 void ElastanceLv::rhs(double t, const Eigen::VectorXd& y, Eigen::VectorXd& dy) const {
-  const Sample s = observe(t, y);
-  dy(0) = s.Q_mv - s.Q_av;
-  dy(1) = s.Q_pv - s.Q_mv;
-  dy(2) = (s.Q_av - s.Q_per) / p_.C_sys;
+  three_state_rhs(observe(t, y), p_, dy);
 }
 
 }  // namespace foreign
