@@ -17,7 +17,7 @@ double double_hill(double s, const ElastanceParameters& p) {
 
 }  // namespace
 
-ElastanceLv::ElastanceLv(const ElastanceParameters& p) : p_(p) {
+ElastanceLv::ElastanceLv(const ElastanceParameters& p) : ThreeStateLv(p) {
   const double T = period();
   double mx = 0.0;
   for (int k = 0; k <= 20000; ++k) mx = std::max(mx, double_hill(T * k / 20000.0, p_));
@@ -39,20 +39,6 @@ double ElastanceLv::lv_pressure(double t, double V) const {
   const double active = p_.Ees * (V - p_.V0_es);
   const double passive = p_.A_ed * (std::exp(p_.B_ed * (V - p_.V0_ed)) - 1.0);
   return e * active + (1.0 - e) * passive;
-}
-
-Eigen::VectorXd ElastanceLv::initial_state() const {
-  Eigen::VectorXd y(3);
-  y << 120.0, 60.0, 80.0;
-  return y;
-}
-
-Sample ElastanceLv::observe(double t, const Eigen::VectorXd& y) const {
-  return three_state_sample(t, y, lv_pressure(t, y(0)), atrial_activation(t), p_);
-}
-
-void ElastanceLv::rhs(double t, const Eigen::VectorXd& y, Eigen::VectorXd& dy) const {
-  three_state_rhs(observe(t, y), p_, dy);
 }
 
 }  // namespace foreign

@@ -124,4 +124,30 @@ void three_state_rhs(const Sample& s, const P& p, Eigen::VectorXd& dy) {
   dy(2) = (s.Q_av - s.Q_per) / p.C_sys;
 }
 
+/// An LV circuit of the three states (V_lv, V_la, P_c) and the shared circulation above whose
+/// ventricle is one pressure law: Derived provides lv_pressure(t, V) [mmHg] and
+/// atrial_activation(t) in [0, 1]; P is its parameter struct (with heart_rate [bpm]).
+template <class Derived, class P>
+class ThreeStateLv : public LvCircuit {
+ public:
+  explicit ThreeStateLv(const P& p) : p_(p) {}
+  double period() const override { return 60.0 / p_.heart_rate; }
+  Eigen::VectorXd initial_state() const override {
+    Eigen::VectorXd y(3);
+    y << 120.0, 60.0, 80.0;  // [mL], [mL], [mmHg]
+    return y;
+  }
+  Sample observe(double t, const Eigen::VectorXd& y) const override {
+    const Derived& d = static_cast<const Derived&>(*this);
+    return three_state_sample(t, y, d.lv_pressure(t, y(0)), d.atrial_activation(t), p_);
+  }
+  void rhs(double t, const Eigen::VectorXd& y, Eigen::VectorXd& dy) const override {
+    three_state_rhs(observe(t, y), p_, dy);
+  }
+  const P& parameters() const { return p_; }
+
+ protected:
+  P p_;
+};
+
 }  // namespace foreign

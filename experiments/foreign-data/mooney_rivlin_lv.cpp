@@ -33,18 +33,4 @@ double MooneyRivlinLv::lv_pressure(double t, double V) const {
   return kMmHgPerKPa * (2.0 / 3.0) * (p_.V_wall / V) * sigma;
 }
 
-Eigen::VectorXd MooneyRivlinLv::initial_state() const {
-  Eigen::VectorXd y(3);
-  y << 120.0, 60.0, 80.0;
-  return y;
-}
-
-Sample MooneyRivlinLv::observe(double t, const Eigen::VectorXd& y) const {
-  return three_state_sample(t, y, lv_pressure(t, y(0)), atrial_activation(t), p_);
-}
-
-void MooneyRivlinLv::rhs(double t, const Eigen::VectorXd& y, Eigen::VectorXd& dy) const {
-  three_state_rhs(observe(t, y), p_, dy);
-}
-
 }  // namespace foreign

@@ -58,22 +58,16 @@ struct MooneyRivlinParameters {
   double P_ven = 5.0;    ///< [mmHg]
 };
 
-class MooneyRivlinLv final : public LvCircuit {
+class MooneyRivlinLv final : public ThreeStateLv<MooneyRivlinLv, MooneyRivlinParameters> {
  public:
-  explicit MooneyRivlinLv(const MooneyRivlinParameters& p) : p_(p) {}
-  double period() const override { return 60.0 / p_.heart_rate; }
-  Eigen::VectorXd initial_state() const override;
-  void rhs(double t, const Eigen::VectorXd& y, Eigen::VectorXd& dy) const override;
-  Sample observe(double t, const Eigen::VectorXd& y) const override;
+  explicit MooneyRivlinLv(const MooneyRivlinParameters& p) : ThreeStateLv(p) {}
 
   double activation(double t) const;          ///< a(t) in [0, 1], t after ventricular onset (mod T)
   double atrial_activation(double t) const;   ///< raised cosine of T_la, starting t_la_onset early
   double passive_stress(double lambda) const; ///< [kPa]
   double lv_pressure(double t, double V) const;  ///< [mmHg]
-  const MooneyRivlinParameters& parameters() const { return p_; }
 
  private:
-  MooneyRivlinParameters p_;
 };
 
 }  // namespace foreign
