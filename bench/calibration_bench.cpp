@@ -97,7 +97,10 @@ BENCHMARK(BM_CalibrateForeign)
     ->Iterations(1)->UseRealTime()->Unit(benchmark::kSecond);
 
 // The shipped config on one case of each foreign family (issue 45, "Benchmark"): per case the
-// wall time, forward runs and iterations. Arg: index into kCases.
+// wall time, forward runs and iterations, before and after side by side. Args: case (index into
+// kCases); stop (0: the step-only stop of before issue 45, objective_tolerance 0, which also
+// disables the valley finishing step; 1: the shipped config, objective-based stop).
+//   build/bench/calibration_bench --benchmark_filter='BM_CalibrateForeignCase/case:1/'
 struct BenchCase {
   const char* name;
   const char* period;  // [s], configs/data/foreign/cases.yaml
@@ -112,6 +115,7 @@ void BM_CalibrateForeignCase(benchmark::State& state) {
   ForeignProblem f(14, c.name, c.period);
   estimation::UtOptions options = f.problem.options;
   options.ensemble = f.ensemble;
+  if (state.range(1) == 0) options.objective_tolerance = 0.0;
   estimation::UtSummary s;
   for (auto _ : state) {
     s = estimation::UtCalibration(f.forward, f.problem.prior, f.problem.observations, options).run();
@@ -120,10 +124,11 @@ void BM_CalibrateForeignCase(benchmark::State& state) {
   state.counters["iterations"] = static_cast<double>(s.iterations.size());
   state.counters["objective"] = s.objective;
   state.counters["converged"] = s.termination == estimation::UtTermination::kConverged ? 1 : 0;
-  state.SetLabel(std::string("UT, ") + c.name + ", " + estimation::to_string(s.termination));
+  state.SetLabel(std::string("UT, ") + c.name + (state.range(1) == 0 ? ", step-only stop, " : ", ") +
+                 estimation::to_string(s.termination));
 }
 BENCHMARK(BM_CalibrateForeignCase)
-    ->ArgNames({"case"})->DenseRange(0, 3)
+    ->ArgNames({"case", "stop"})->ArgsProduct({{0, 1, 2, 3}, {0, 1}})
     ->Iterations(1)->UseRealTime()->Unit(benchmark::kSecond);
 
 }  // namespace
