@@ -113,6 +113,8 @@ void parse_file_observations(const Config& config, const ConfigNode& obs,
     } catch (const std::invalid_argument& e) {
       obs["curves"].fail(e.what());
     }
+    out.curve_sampling = co.sampler;
+    out.frame_origin = co.frame_origin;
     sets.push_back(std::move(co.observations));
   }
   if (parts.empty()) {
@@ -217,7 +219,11 @@ estimation::PriorParameter parse_estimated(const Config& config, const std::stri
   }
   node.check_keys({"prior", "spread", "transform", "bounds"});
   try {
-    return bounded_by_the_model(parse_estimated_parameter(space[*index], node), space[*index]);
+    estimation::PriorParameter c = bounded_by_the_model(parse_estimated_parameter(space[*index], node), space[*index]);
+    c.range_lower = space[*index].range_lower;  // the physiological range, reported (prior_conflict.h)
+    c.range_upper = space[*index].range_upper;
+    c.range_source = space[*index].range_source;
+    return c;
   } catch (const std::invalid_argument& e) {
     node.fail(std::string(e.what()) + " (bounds of '" + name + "': the prior must lie strictly inside)");
   }
@@ -277,9 +283,24 @@ void parse_least_squares(const ConfigNode& node, const estimation::UtOptions& ut
   }
 }
 
+// observations.noise_model: {estimate_scale: true, prior_shape: 3, prior_scale: 4}: an unknown
+// scale per channel with an inverse-gamma prior on its variance multiplier (noise_scale.h).
+std::optional<estimation::NoiseScalePrior> parse_noise_scale(const ConfigNode& node) {
+  if (!node.defined()) return std::nullopt;
+  if (!node.is_map()) node.fail("expected {estimate_scale: true|false, prior_shape: 3, prior_scale: 4}");
+  node.check_keys({"estimate_scale", "prior_shape", "prior_scale"});
+  if (!node.require_child("estimate_scale").as<bool>()) return std::nullopt;
+  estimation::NoiseScalePrior prior;
+  prior.shape = node.optional<double>("prior_shape", prior.shape);
+  if (!(prior.shape > 0)) node["prior_shape"].fail("expected a positive inverse-gamma shape a0");
+  prior.scale = node.optional<double>("prior_scale", prior.shape + 1.0);
+  if (!(prior.scale > 0)) node["prior_scale"].fail("expected a positive inverse-gamma scale b0");
+  return prior;
+}
+
 estimation::UtOptions parse_ut_options(const ConfigNode& node) {
   estimation::UtOptions o;
-  node.check_keys({"sigma_points", "kappa", "alpha", "beta", "mode", "max_iterations", "tolerance",
+  node.check_keys({"sigma_points", "kappa", "alpha", "beta", "mode", "max_iterations", "tolerance", "objective_tolerance",
                    "inflation", "sample_scale", "failure_policy", "shrink_factor", "max_retries",
                    "max_rejections", "bound_margin", "global_start", "threads", "method", "reference",
                    "least_squares"});
@@ -297,6 +318,8 @@ estimation::UtOptions parse_ut_options(const ConfigNode& node) {
   }
   o.max_iterations = node.optional<int>("max_iterations", o.mode == estimation::UtMode::kOneShot ? 1 : 20);
   o.tolerance = node.optional<double>("tolerance", o.tolerance);
+  o.objective_tolerance = node.optional<double>("objective_tolerance", o.objective_tolerance);
+  if (!(o.objective_tolerance >= 0)) node["objective_tolerance"].fail("expected >= 0 (0: stop on the step only)");
   o.inflation = node.optional<double>("inflation", o.inflation);
   o.sample_scale = node.optional<double>("sample_scale", o.sample_scale);
   if (node.has("failure_policy")) {
@@ -342,7 +365,7 @@ CalibrationProblem parse_calibration_problem(const Config& config,
   const auto sim_channels = sim->channels();
 
   const ConfigNode obs = root.require_child("observations");
-  obs.check_keys({"file", "indices", "curves", "align", "noise", "values", "outputs", "covariance"});
+  obs.check_keys({"file", "indices", "curves", "align", "noise", "noise_model", "values", "outputs", "covariance"});
   const bool from_file = obs.has("file") || !observation_file.empty();
   if (static_cast<int>(from_file) + obs.has("values") + obs.has("outputs") != 1) {
     obs.fail("give one of 'file:' (measured curves), 'values:' (typed-in indices) or 'outputs:' "
@@ -371,6 +394,10 @@ CalibrationProblem parse_calibration_problem(const Config& config,
 
   const ConfigNode cal = root["calibration"];
   out.options = parse_ut_options(cal);
+  out.options.noise_scale = parse_noise_scale(obs["noise_model"]);
+  if (out.options.noise_scale && out.options.mode != estimation::UtMode::kMap) {
+    obs["noise_model"].fail("an estimated noise scale needs calibration.mode: map");
+  }
   const std::string problem = out.options.validate(out.prior.size());
   if (!problem.empty()) cal.fail(problem);
   parse_least_squares(cal, out.options, config.seed, out);

@@ -37,6 +37,7 @@
 #include "app/config.h"
 #include "estimation/least_squares.h"
 #include "estimation/ut_calibration.h"
+#include "observers/curve_sampler.h"
 #include "observers/observer.h"
 
 #include <filesystem>
@@ -53,6 +54,10 @@ struct CalibrationProblem {
   std::vector<std::string> measured_display_units;
   std::filesystem::path observation_file;
 
+  // Curve observations: how the frames are read from a simulated beat and where the measured
+  // frames' origin lies on the file's clock (the fit figure draws the model on the data's axis).
+  std::optional<observers::CurveSamplerOptions> curve_sampling;
+  double frame_origin = 0.0;                       // [s]
   observers::ObservationSet observations;          // SI, display units kept
   std::unique_ptr<observers::Observer> observer;   // same names and order as observations
   estimation::Prior prior;                         // the estimated parameters, in config order

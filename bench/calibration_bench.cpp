@@ -29,14 +29,15 @@ constexpr const char* kCase = "one-fibre-healthy";  // 72 bpm, 30 frames of V_lv
 // (12) or the 5-parameter one on kCase with its period, parsed as `sigmaheart calibrate` parses
 // it, and the forward model of its estimated parameters.
 struct ForeignProblem {
-  explicit ForeignProblem(int parameters)
+  explicit ForeignProblem(int parameters, const std::string& case_name = kCase,
+                          const std::string& period = "0.833333")
       : config(app::load_config(
             std::string(SIGMAHEART_SOURCE_DIR) + "/experiments/foreign-data/" +
                 (parameters == 5    ? "calibrate-foreign-5.yaml"
                  : parameters == 12 ? "calibrate-foreign-12.yaml"
                                     : "calibrate-foreign.yaml"),
-            {std::string("observations.file=../../configs/data/foreign/") + kCase + ".csv",
-             "period=0.833333"})),
+            {std::string("observations.file=../../configs/data/foreign/") + case_name + ".csv",
+             "period=" + period})),
         problem(app::parse_calibration_problem(config)),
         simulator(config.simulator.make()),
         forward(*simulator, *problem.observer, problem.prior.names()) {
@@ -93,6 +94,41 @@ BENCHMARK(BM_CalibrateForeign)
     ->Args({5, 0, 0})->Args({5, 1, 0})
     ->Args({12, 0, 0})->Args({12, 1, 0})->Args({12, 0, 1})->Args({12, 1, 1})
     ->Args({14, 0, 0})->Args({14, 1, 0})->Args({14, 0, 1})->Args({14, 1, 1})
+    ->Iterations(1)->UseRealTime()->Unit(benchmark::kSecond);
+
+// The shipped config on one case of each foreign family (issue 45, "Benchmark"): per case the
+// wall time, forward runs and iterations, before and after side by side. Args: case (index into
+// kCases); stop (0: the step-only stop of before issue 45, objective_tolerance 0, which also
+// disables the valley finishing step; 1: the shipped config, objective-based stop).
+//   build/bench/calibration_bench --benchmark_filter='BM_CalibrateForeignCase/case:1/'
+struct BenchCase {
+  const char* name;
+  const char* period;  // [s], configs/data/foreign/cases.yaml
+};
+constexpr BenchCase kCases[] = {{"elastance-healthy", "0.923077"},
+                                {"one-fibre-healthy", "0.833333"},
+                                {"mooney-rivlin-healthy", "0.882353"},
+                                {"mooney-rivlin-stiff", "0.937500"}};
+
+void BM_CalibrateForeignCase(benchmark::State& state) {
+  const BenchCase& c = kCases[state.range(0)];
+  ForeignProblem f(14, c.name, c.period);
+  estimation::UtOptions options = f.problem.options;
+  options.ensemble = f.ensemble;
+  if (state.range(1) == 0) options.objective_tolerance = 0.0;
+  estimation::UtSummary s;
+  for (auto _ : state) {
+    s = estimation::UtCalibration(f.forward, f.problem.prior, f.problem.observations, options).run();
+  }
+  state.counters["simulations"] = s.simulations;
+  state.counters["iterations"] = static_cast<double>(s.iterations.size());
+  state.counters["objective"] = s.objective;
+  state.counters["converged"] = s.termination == estimation::UtTermination::kConverged ? 1 : 0;
+  state.SetLabel(std::string("UT, ") + c.name + (state.range(1) == 0 ? ", step-only stop, " : ", ") +
+                 estimation::to_string(s.termination));
+}
+BENCHMARK(BM_CalibrateForeignCase)
+    ->ArgNames({"case", "stop"})->ArgsProduct({{0, 1, 2, 3}, {0, 1}})
     ->Iterations(1)->UseRealTime()->Unit(benchmark::kSecond);
 
 }  // namespace

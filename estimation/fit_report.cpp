@@ -570,4 +570,10 @@ AlignedBeat align_on_end_diastole(const model::Trajectory& measured, const Align
   return out;
 }
 
+void note_prior_conflict(FitReport& report, const PriorConflict& conflict) {
+  report.prior_conflict = conflict.describe();
+  if (report.prior_conflict.empty()) return;
+  report.summary += (report.summary.empty() ? "" : "; ") + report.prior_conflict;
+}
+
 }  // namespace sigmaheart::estimation

@@ -11,6 +11,7 @@
 // fraction); app/io/fit_report_io.h converts them for display.
 #pragma once
 
+#include "estimation/prior_conflict.h"
 #include "model/simulator.h"
 #include "observers/observer.h"
 
@@ -158,6 +159,9 @@ struct CurveResidual {
 };
 
 struct FitReport {
+  // Parameters that left their prior (> 3 prior std) or physiological range (note_prior_conflict):
+  // "prior conflict: model discrepancy absorbed by PARAM (...)"; empty when none.
+  std::string prior_conflict;
   std::vector<ChannelFit> channels;         // in order of first appearance
   std::vector<CurveResidual> curves;        // the channels observed at frames, same order
   std::vector<IndexComparison> indices;     // when the volume curve is observed at frames
@@ -221,5 +225,9 @@ struct AlignedBeat {
 };
 AlignedBeat align_on_end_diastole(const model::Trajectory& measured,
                                   const AlignmentOptions& options = {});
+
+// Adds the prior conflict (prior_conflict.h) to the report: FitReport::prior_conflict and the end
+// of the summary in words; nothing when no parameter conflicts.
+void note_prior_conflict(FitReport& report, const PriorConflict& conflict);
 
 }  // namespace sigmaheart::estimation

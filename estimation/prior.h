@@ -53,6 +53,11 @@ struct PriorParameter {
   double std_eta = 1.0;   // kGaussian, > 0
   SamplingSpace space = SamplingSpace::kPhysical;  // kUniform
   double theta_nominal = 0.0;
+  // Physiological range (SI) and its source, from model::Parameter (docs/models.md s.8); NaN: none.
+  // Not a bound: an estimate may leave it, and prior_conflict.h says so.
+  double range_lower = std::numeric_limits<double>::quiet_NaN();
+  double range_upper = std::numeric_limits<double>::quiet_NaN();
+  std::string range_source;
 
   // A Gaussian parameter centred (in eta) on theta_mean with the spread converted by `spread_kind`
   // at theta_mean. Throws std::invalid_argument naming the parameter when theta_mean is outside

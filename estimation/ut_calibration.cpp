@@ -122,6 +122,12 @@ std::string UtOptions::validate(int p) const {
       << global_start.samples << " samples, keep " << global_start.keep;
   } else if (!(global_start.width > 0) || !std::isfinite(global_start.width)) {
     m << "ut calibration: global_start width must be > 0 prior stds, got " << global_start.width;
+  } else if (!(objective_tolerance >= 0) || !std::isfinite(objective_tolerance)) {
+    m << "ut calibration: objective_tolerance must be >= 0, got " << objective_tolerance;
+  } else if (noise_scale && mode != UtMode::kMap) {
+    m << "ut calibration: an estimated noise scale needs mode map";
+  } else if (noise_scale && !noise_scale->validate().empty()) {
+    m << "ut calibration: noise scale prior: " << noise_scale->validate();
   } else {
     return ensemble.validate();
   }
@@ -302,10 +308,14 @@ double chi2_upper_quantile(int k, double alpha) {
   return k * std::pow(std::max(0.0, 1.0 - v + z * std::sqrt(v)), 3);
 }
 
-// The data misfit, the prior term and the MAP objective Phi of docs/estimation.md s.3.3.
+// The data misfit, the prior term and the MAP objective Phi of docs/estimation.md s.3.3. With a
+// noise scale per channel (noise_scale.h) the data term is the marginal's, in whitened residuals.
 struct Objective {
   Eigen::VectorXd y, r_std, eta0;
   Eigen::LLT<Eigen::MatrixXd> P0;
+  Eigen::MatrixXd L;  // R = L L^T
+  std::optional<NoiseScalePrior> noise;
+  ChannelGroups groups;
 
   UtFit fit(const Eigen::VectorXd& theta, const Eigen::VectorXd& z, const model::Status& status) const {
     UtFit f;
@@ -320,13 +330,21 @@ struct Objective {
     const Eigen::VectorXd d = eta - eta0;
     return 0.5 * d.dot(P0.solve(d));
   }
+  Eigen::VectorXd whitened(const UtFit& f) const {
+    return L.triangularView<Eigen::Lower>().solve(f.residual);
+  }
   // NaN when the run failed.
-  double phi(const UtFit& f, const Eigen::VectorXd& eta) const { return f.misfit() + prior_term(eta); }
+  double data_term(const UtFit& f) const {
+    return noise ? marginal_misfit(*noise, groups, whitened(f)) : f.misfit();
+  }
+  double phi(const UtFit& f, const Eigen::VectorXd& eta) const { return data_term(f) + prior_term(eta); }
 };
 
-Objective make_objective(const Prior& prior, const observers::ObservationSet& obs) {
+Objective make_objective(const Prior& prior, const observers::ObservationSet& obs,
+                         const std::optional<NoiseScalePrior>& noise) {
   return {obs.y, obs.R.diagonal().cwiseSqrt(), prior.mean_eta(),
-          Eigen::LLT<Eigen::MatrixXd>(prior.covariance_eta())};
+          Eigen::LLT<Eigen::MatrixXd>(prior.covariance_eta()), Eigen::LLT<Eigen::MatrixXd>(obs.R).matrixL(),
+          noise, channel_groups(obs.names)};
 }
 
 // A covariance square root, or nullopt when P is not finite or not decomposable (a numerical
@@ -437,7 +455,7 @@ UtSummary UtCalibration::run() {
 
 UtSummary UtCalibration::run_global() {
   const int p = prior_.size();
-  const Objective objective = make_objective(prior_, observations_);
+  const Objective objective = make_objective(prior_, observations_, options_.noise_scale);
   const UtGlobalStart& g = options_.global_start;
   // Row 0: the prior mean; rows 1..N: Sobol' points 2..N+1 mapped to eta0 + width sigma0 (2u - 1)
   // (point 0 is the box's corner, point 1 its centre, i.e. the prior mean again: screened twice,
@@ -528,7 +546,7 @@ UtSummary UtCalibration::run_local(const Start& start) {
   const int p = prior_.size();
   const int m = observations_.size();
   const Eigen::VectorXd& y = observations_.y;
-  const Objective objective = make_objective(prior_, observations_);
+  const Objective objective = make_objective(prior_, observations_, options_.noise_scale);
   const bool map = options_.mode == UtMode::kMap;
 
   UtSummary summary;
@@ -751,6 +769,18 @@ UtSummary UtCalibration::run_local(const Start& start) {
     constexpr int kStall = 5;
     std::vector<double> phi_history;  // Phi at the start of each iteration
     bool done = false;
+    const double objective_limit = options_.objective_tolerance * m;
+    // The valley's finishing step (docs/estimation.md s.3.3): when Phi creeps along a narrow
+    // curved valley (parameters correlated at |rho| ~ 0.99) damped Gauss-Newton steps shrink
+    // geometrically, each about q times the last. The centres then approach their limit like a
+    // geometric series, whose remainder is q / (1 - q) times the last step (Aitken's
+    // extrapolation of a linearly converging sequence; Brezinski & Redivo Zaglia 1991,
+    // Extrapolation Methods, s.1.3): one run there (and at a quarter of it) instead of dozens of
+    // iterations; taken only if it lowers Phi. Tried once per flat stretch, kMaxExtrapolations
+    // times per run.
+    constexpr double kMaxExtrapolation = 50.0;
+    constexpr int kMaxExtrapolations = 5;
+    bool valley_tried = false;
     // The last successful linearisation and its centre: where a rejected centre returns to.
     struct Linearisation {
       UtIteration rec;
@@ -764,6 +794,37 @@ UtSummary UtCalibration::run_local(const Start& start) {
       Eigen::VectorXd warm_c;         // the centre's warm start
     };
     std::optional<Linearisation> lin;
+    auto finish_valley = [&](int it, UtIteration& rec) {
+      const Eigen::VectorXd& e1 = summary.iterations.back().eta_center;
+      const Eigen::VectorXd& e0 = summary.iterations[summary.iterations.size() - 2].eta_center;
+      const Eigen::VectorXd d1 = eta_c - e1;
+      const double n1 = d1.cwiseQuotient(sigma0).norm(), n0 = (e1 - e0).cwiseQuotient(sigma0).norm();
+      if (!(n1 > 0)) return false;
+      const double q = n0 > 0 ? n1 / n0 : 0.0;
+      const double factor = q > 0 && q < 1 ? std::min(q / (1 - q), kMaxExtrapolation) : 1.0;
+      summary.extrapolations += 1;
+      for (const double f : {factor, 0.25 * factor}) {
+        const Eigen::VectorXd eta_x = eta_c + f * d1;
+        Eigen::VectorXd warm_x;
+        UtFit fit_x = run_one(eta_x, it, warm_c, warm_starts ? &warm_x : nullptr);
+        const double phi_x = objective.phi(fit_x, eta_x);
+        log_debug("UT map iteration {}: valley finishing step x{:.3g} (q {:.3g}): Phi {:.6g} -> {:.6g}", it,
+                  f, q, phi_c, phi_x);
+        if (std::isfinite(phi_x) && phi_x < phi_c) {
+          rec.eta_mean = eta_x;
+          rec.extrapolated = true;
+          eta_c = eta_x;
+          fit_c = std::move(fit_x);
+          warm_c = std::move(warm_x);
+          phi_c = phi_x;
+          P_c = lin ? lin->P_post : P_c;
+          relinearisations = 0;
+          valley_tried = false;
+          return true;
+        }
+      }
+      return false;
+    };
     if (!fit_c.status.ok() || !std::isfinite(phi_c)) {
       summary.actions.push_back({UtAction::Kind::kAbort, 0, 0, 1.0, 0.0, 0.0, {-1}});
       abort_with("the starting point (" + format_theta(summary.names, fit_c.theta) +
@@ -782,8 +843,17 @@ UtSummary UtCalibration::run_local(const Start& start) {
       if (sample(it, eta_c, P_c, rec, false, lin.has_value(), &fit_c.z, warm_c)) {
         const Moments mo = moments(rec);
         // z ~ A eta + b over the sigma points of the current posterior approximation.
-        const Eigen::MatrixXd A = Eigen::LLT<Eigen::MatrixXd>(P_c).solve(mo.Ptz).transpose();  // m x p
-        const Eigen::VectorXd rw = yw - Lt.solve(fit_c.z);  // whitened residual at the centre
+        Eigen::MatrixXd A = Eigen::LLT<Eigen::MatrixXd>(P_c).solve(mo.Ptz).transpose();  // m x p
+        Eigen::VectorXd rw = yw - Lt.solve(fit_c.z);  // whitened residual at the centre
+        const Eigen::VectorXd rw_stated = rw;
+        if (options_.noise_scale) {
+          // Gauss-Newton on the marginal over the channel scales: the Gaussian step with each
+          // channel's rows weighted by w_c = E[1 / s_c^2 | r_c] at the centre (noise_scale.h).
+          const Eigen::VectorXd sw = observation_weights(
+              noise_scale_posterior(*options_.noise_scale, objective.groups, rw), objective.groups).cwiseSqrt();
+          A = sw.asDiagonal() * A;
+          rw = rw.cwiseProduct(sw);
+        }
         // The update from the PRIOR (eta0, P0) with this linearisation.
         const Eigen::MatrixXd Sw = A * P0 * A.transpose() + Eigen::MatrixXd::Identity(m, m);
         const Eigen::LDLT<Eigen::MatrixXd> ldlt(Sw);
@@ -797,7 +867,7 @@ UtSummary UtCalibration::run_local(const Start& start) {
         }
         const Eigen::MatrixXd Sc = A * P_c * A.transpose() + Eigen::MatrixXd::Identity(m, m);
         rec.z_bar = L * mo.zbar;
-        rec.innovation = L * rw;
+        rec.innovation = L * rw_stated;
         rec.nis = rw.dot(Sc.ldlt().solve(rw));
         rec.P_zz = L * mo.Pzz * L.transpose();
         rec.P_tz = mo.Ptz * L.transpose();
@@ -873,6 +943,28 @@ UtSummary UtCalibration::run_local(const Start& start) {
           done = true;
           break;
         }
+        // The objective-based stop: over the last two iterations Phi fell by less than
+        // objective_tolerance per observation. Before stopping, one finishing step along the
+        // valley the last steps crept down (finish_valley); if it lowers Phi the run goes on.
+        if (candidate == 0 && objective_limit > 0 && n_phi >= 3 &&
+            phi_history[n_phi - 3] - phi_c < objective_limit) {
+          if (!valley_tried && summary.extrapolations < kMaxExtrapolations && summary.iterations.size() >= 2) {
+            valley_tried = true;
+            if (finish_valley(it, rec)) break;
+          }
+          rec.eta_mean = eta_c;
+          summary.termination = UtTermination::kConverged;
+          summary.message = "objective: Phi fell by " + format_number(phi_history[n_phi - 3] - phi_c) +
+                            " over the last 2 iterations (< " + format_number(options_.objective_tolerance) +
+                            " per observation = " + format_number(objective_limit) + "), last step " +
+                            format_number(rec.step) + " prior stds, the linearised Phi promised " +
+                            format_number(gn_decrease) +
+                            (summary.extrapolations > 0
+                                 ? "; " + std::to_string(summary.extrapolations) + " valley finishing step(s)"
+                                 : std::string());
+          done = true;
+          break;
+        }
         const Eigen::VectorXd eta_n = eta_c + d;
         current_attempt = candidate;
         Eigen::VectorXd warm_n;
@@ -930,7 +1022,12 @@ UtSummary UtCalibration::run_local(const Start& start) {
           summary.termination = UtTermination::kDiverged;
           summary.message = "iteration " + std::to_string(it) + ": no step lowers the MAP objective (" +
                             std::to_string(rec.rejected) + " damped candidates rejected, Phi " +
-                            std::to_string(phi_c) + ")";
+                            std::to_string(phi_c) + ")" +
+                            (options_.global_start.samples == 0
+                                 ? "; the slope over the sigma points contradicts Phi here: start "
+                                   "elsewhere (calibration.global_start: {samples: 32, keep: 4, width: 2}) "
+                                   "or sample more locally (a smaller calibration.sample_scale)"
+                                 : std::string());
           done = true;
           break;
         }
@@ -1111,6 +1208,10 @@ UtSummary UtCalibration::run_local(const Start& start) {
   summary.metrics_after = metrics_of(summary.fit_after);
   if (summary.fit_before) summary.objective_prior = objective.phi(*summary.fit_before, eta0);
   if (summary.fit_after) summary.objective = objective.phi(*summary.fit_after, eta_last);
+  if (options_.noise_scale && summary.fit_after && summary.fit_after->z.allFinite()) {
+    summary.noise_scale = noise_scale_posterior(*options_.noise_scale, objective.groups,
+                                                objective.whitened(*summary.fit_after));
+  }
   classify(summary, options_, prior_, m);
   return summary;
 }

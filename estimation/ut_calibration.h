@@ -75,6 +75,7 @@
 
 #include "estimation/ensemble.h"
 #include "estimation/fit_metrics.h"
+#include "estimation/noise_scale.h"
 #include "estimation/prior.h"
 #include "estimation/sigma_points.h"
 #include "estimation/transform.h"
@@ -146,6 +147,14 @@ struct UtOptions {
   UtMode mode = UtMode::kOneShot;
   int max_iterations = 1;                    // iterate modes; kOneShot always runs 1
   double tolerance = 1e-4;                   // on max |d eta_j| / sigma0_j
+  // kMap, the objective-based stop (docs/estimation.md s.3.3): converged when Phi fell by less
+  // than objective_tolerance per observation over the last two iterations and the linearised
+  // Phi promises no more than that either (Phi is in squared noise units / 2, so 0.01 per
+  // observation is a change of 0.02 in the mean squared normalised residual). 0: off (step only).
+  double objective_tolerance = 0.01;
+  // kMap: an unknown scale per observation channel with this inverse-gamma prior on its variance
+  // multiplier, marginalised (noise_scale.h); nullopt: the stated noise is exact.
+  std::optional<NoiseScalePrior> noise_scale;
   // kMap: rejected (damped) candidates allowed in one iteration before the run ends kDiverged.
   int max_rejections = 8;
   // An estimate closer to a bound than bound_margin x (the prior's distance to it) is kAtBound.
@@ -233,6 +242,7 @@ struct UtIteration {
   Eigen::MatrixXd P;                // P+
   double step = 0.0;                // max |eta+_j - eta_c,j| / sigma0_j
   double objective = 0.0;           // Phi at eta_center (kMap; data misfit in the other modes)
+  bool extrapolated = false;        // kMap: the centre came from the valley's finishing step
   double lambda = 0.0;              // kMap: damping of the accepted step
   int rejected = 0;                 // kMap: candidates rejected in this iteration
 };
@@ -292,6 +302,9 @@ struct UtSummary {
   double objective = std::numeric_limits<double>::quiet_NaN();
   double nis_threshold = std::numeric_limits<double>::quiet_NaN();  // kOneShot: chi2 quantile
   std::vector<UtStart> starts;          // global start: every start (empty without one)
+  // kMap with UtOptions::noise_scale: each channel's variance-multiplier posterior at the estimate.
+  std::optional<NoiseScalePosterior> noise_scale;
+  int extrapolations = 0;               // kMap: valley finishing steps tried (docs/estimation.md s.3.3)
 
   // Set when another estimator reports through this summary (least_squares.h,
   // as_calibration_summary): brief_report() returns it.

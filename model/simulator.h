@@ -61,7 +61,14 @@ struct Parameter {
   // segment is the AHA segment or patch (1-based) of a regional parameter, 0 for a global one.
   std::string family;
   int segment = 0;
+  // Physiological range (SI; docs/models.md s.8): where a value still describes a human heart,
+  // healthy or diseased, with its source. Narrower than [lower, upper], which only keep runs
+  // physical. NaN: no range stated. Calibrations report whether an estimate left it.
+  double range_lower = std::numeric_limits<double>::quiet_NaN();
+  double range_upper = std::numeric_limits<double>::quiet_NaN();
+  std::string range_source;
   bool regional() const { return segment > 0; }
+  bool has_range() const { return range_lower == range_lower && range_upper == range_upper; }
 };
 
 class ParameterSpace {

@@ -80,11 +80,10 @@ std::unique_ptr<Observer> CurveSampler::clone() const {
   return std::make_unique<CurveSampler>(*this);
 }
 
-Status CurveSampler::observe(const model::Trajectory& trajectory,
-                             Eigen::Ref<Eigen::VectorXd> z) const {
-  if (auto status = check_z_size("curve sampler", z.size(), outputs_.size()); !status.ok()) {
-    return status;
-  }
+// The grid of the trajectory (its own clock), the unique samples of each sampled channel (SI) and
+// the frame origin: what observe() interpolates and aligned_beat() hands out.
+Status CurveSampler::read_beat(const model::Trajectory& trajectory, BeatGrid& grid,
+                               Eigen::MatrixXd& values, double& origin) const {
   const size_t nc = options_.channels.size();
   const bool align = !options_.alignment_channel.empty();
   Eigen::MatrixXd columns(trajectory.times.size(), static_cast<Eigen::Index>(nc + (align ? 1 : 0)));
@@ -105,21 +104,41 @@ Status CurveSampler::observe(const model::Trajectory& trajectory,
     }
     columns.col(static_cast<Eigen::Index>(nc)) = col;
   }
-
-  BeatGrid grid;
   if (auto s = make_beat_grid(trajectory.times, columns, options_.beat, grid); !s.ok()) {
     s.message = "curve sampler: " + s.message;
     return s;
   }
-  const double t_ed =
-      align ? volume_landmarks(grid, grid.unique_samples(columns.col(static_cast<Eigen::Index>(nc))),
-                               options_.beat)
-                  .ed_time
-            : grid.times(0);
-
-  const Eigen::Index frames = options_.frame_times.size();
+  origin = align ? volume_landmarks(grid, grid.unique_samples(columns.col(static_cast<Eigen::Index>(nc))),
+                                    options_.beat)
+                       .ed_time
+                 : grid.times(0);
+  values.resize(grid.samples(), static_cast<Eigen::Index>(nc));
   for (size_t c = 0; c < nc; ++c) {
-    const Eigen::VectorXd x = grid.unique_samples(columns.col(static_cast<Eigen::Index>(c)));
+    values.col(static_cast<Eigen::Index>(c)) = grid.unique_samples(columns.col(static_cast<Eigen::Index>(c)));
+  }
+  return Status::Ok();
+}
+
+Status CurveSampler::aligned_beat(const model::Trajectory& trajectory, AlignedBeat& out) const {
+  BeatGrid grid;
+  if (auto s = read_beat(trajectory, grid, out.values, out.origin); !s.ok()) return s;
+  out.period = grid.periodic ? grid.period : 0.0;
+  out.times = grid.times.array() - out.origin;
+  return Status::Ok();
+}
+
+Status CurveSampler::observe(const model::Trajectory& trajectory,
+                             Eigen::Ref<Eigen::VectorXd> z) const {
+  if (auto status = check_z_size("curve sampler", z.size(), outputs_.size()); !status.ok()) {
+    return status;
+  }
+  BeatGrid grid;
+  Eigen::MatrixXd values;
+  double t_ed = 0.0;
+  if (auto s = read_beat(trajectory, grid, values, t_ed); !s.ok()) return s;
+  const Eigen::Index frames = options_.frame_times.size();
+  for (Eigen::Index c = 0; c < values.cols(); ++c) {
+    const Eigen::VectorXd x = values.col(c);
     Eigen::VectorXd dxdt;
     if (options_.interpolation == Interpolation::kCubic) dxdt = derivative(grid, x);
     for (Eigen::Index k = 0; k < frames; ++k) {
@@ -130,7 +149,7 @@ Status CurveSampler::observe(const model::Trajectory& trajectory,
                              "curve sampler: frame " + std::to_string(k) +
                                  " falls outside the non-periodic record");
       }
-      z(static_cast<Eigen::Index>(c) * frames + k) = *value;
+      z(c * frames + k) = *value;
     }
   }
   return Status::Ok();

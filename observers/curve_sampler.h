@@ -34,6 +34,17 @@ struct CurveSamplerOptions {
   std::string validate() const;  // empty when valid
 };
 
+// A simulated beat as the sampler reads it: the unique samples of its grid (a closed beat's
+// mismatch spread as in BeatGrid::unique_samples), each sampled channel in SI, with times measured
+// from the frame origin (t_ED with alignment, else the first sample), so that entry j of the
+// observations is the periodic linear interpolation of these at frame_times(j) (kLinear).
+struct AlignedBeat {
+  Eigen::VectorXd times;   // [s] after the frame origin, increasing, within one period
+  Eigen::MatrixXd values;  // samples x channels, SI, channel order of CurveSamplerOptions
+  double origin = 0.0;     // [s] the frame origin in the trajectory's own time
+  double period = 0.0;     // [s] 0: not periodic
+};
+
 // "V_lv@f07" for (V_lv, 7, 30 frames).
 std::string frame_name(const std::string& channel, int frame, int frames);
 
@@ -49,8 +60,14 @@ class CurveSampler : public Observer {
   std::unique_ptr<Observer> clone() const override;
 
   const CurveSamplerOptions& options() const { return options_; }
+  // The beat the frames are read from (AlignedBeat), for figures that draw the model on the
+  // data's time axis; the same grid, alignment and errors as observe().
+  model::Status aligned_beat(const model::Trajectory& trajectory, AlignedBeat& out) const;
 
  private:
+  model::Status read_beat(const model::Trajectory& trajectory, BeatGrid& grid,
+                          Eigen::MatrixXd& values, double& origin) const;
+
   CurveSamplerOptions options_;
   std::vector<std::string> si_units_;  // per sampled channel
   std::vector<model::Channel> outputs_;

@@ -297,6 +297,7 @@ CurveObservations observations_from_curves(const model::Trajectory& measured,
   fill_noise(set, noise);
   if (auto msg = set.validate(); !msg.empty()) throw std::invalid_argument(msg);
 
+  out.frame_origin = t_ed;
   out.sampler.channels = options.channels;
   out.sampler.frame_times = frame_times;
   out.sampler.alignment_channel = options.alignment_channel;

@@ -103,6 +103,9 @@ struct CurveObservations {
   // should have the measured period); its beat options are the defaults (a closed simulated
   // beat) with refine_extrema and plateau_tolerance kept.
   CurveSamplerOptions sampler;
+  // [s] the measured frames' origin on the file's clock: frame j was measured at frame_origin +
+  // frame_times(j) (the measured end-diastole with alignment, 0 without).
+  double frame_origin = 0.0;
 };
 CurveObservations observations_from_curves(const model::Trajectory& measured,
                                            const MeasuredCurveOptions& options,

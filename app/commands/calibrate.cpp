@@ -91,11 +91,16 @@ int run_calibrate(const StudyOptions& o, CommandContext& ctx) {
     if (root) spdlog::info("reference: the MAP point by least squares (Ceres)");
     map = estimation::solve_map(forward, problem.prior, problem.observations, lsq);
   }
+  std::optional<estimation::PriorConflict> conflict;
+  if (summary.eta_mean.size() == problem.prior.size() && summary.eta_mean.allFinite()) {
+    conflict = estimation::prior_conflict(problem.prior, summary.eta_mean);
+  }
   std::optional<estimation::FitReport> fit_report;
   if (summary.fit_after && summary.fit_after->status.ok()) {
     fit_report = estimation::make_fit_report(
         problem.observations, summary.fit_after->z,
         estimation::PosteriorSpread{summary.names, summary.eta_covariance, summary.eta_prior_std});
+    if (conflict) estimation::note_prior_conflict(*fit_report, *conflict);
   }
 
   // Curves at the prior and at the estimate, for the plots.
@@ -112,8 +117,18 @@ int run_calibrate(const StudyOptions& o, CommandContext& ctx) {
     results.estimated_theta = forward.full_theta(summary.theta_of_eta_mean);
     if (prior_run.status.ok()) results.prior_curves = prior_run.trajectory;
     if (post_run.status.ok()) results.calibrated_curves = post_run.trajectory;
+    if (problem.curve_sampling) {
+      const observers::CurveSampler sampler(*problem.curve_sampling, simulator->channels());
+      const auto aligned = [&](const model::RunResult& run, std::optional<observers::AlignedBeat>& out) {
+        observers::AlignedBeat beat;
+        if (run.status.ok() && sampler.aligned_beat(run.trajectory, beat).ok()) out = std::move(beat);
+      };
+      aligned(prior_run, results.prior_aligned);
+      aligned(post_run, results.calibrated_aligned);
+    }
     if (fit_report) results.fit_report = &*fit_report;
     if (map) results.map = &*map;
+    results.prior_conflict = conflict;
 
     fill_provenance(prov, config, ctx, "calibrate", threads, ranks);
     io::write_calibration_h5(output, results, prov);

@@ -21,9 +21,14 @@ std::string number(double v) {
 int run_params(const ConfigOptions& o, CommandContext& ctx) {
   const Config config = load_config(o.config, o.overrides, *ctx.models, *ctx.sections);
   const auto& space = config.simulator.parameters;
-  bool tagged = false;
-  for (const auto& p : space.all()) tagged = tagged || !p.family.empty();
+  bool tagged = false, ranged = false;
+  for (const auto& p : space.all()) {
+    tagged = tagged || !p.family.empty();
+    ranged = ranged || p.has_range();
+  }
   std::vector<std::string> header = {"name", "unit", "nominal", "lower", "upper", "from"};
+  // The physiological range (docs/models.md s.8), when the model states any.
+  if (ranged) header.insert(header.begin() + 5, "physiological");
   if (tagged) header.insert(header.end(), {"family", "segment"});
   header.push_back("doc");
   std::vector<std::vector<std::string>> rows;
@@ -32,11 +37,14 @@ int run_params(const ConfigOptions& o, CommandContext& ctx) {
     std::vector<std::string> row = {p.name, p.unit, number(p.nominal), number(p.lower),
                                     number(p.upper),
                                     to_string(config.simulator.sources[static_cast<size_t>(i)])};
+    if (ranged) {
+      row.insert(row.begin() + 5, p.has_range() ? number(p.range_lower) + "-" + number(p.range_upper) : "-");
+    }
     if (tagged) {
       row.push_back(p.family.empty() ? "-" : p.family);
       row.push_back(p.regional() ? std::to_string(p.segment) : "-");
     }
-    row.push_back(p.doc);
+    row.push_back(p.range_source.empty() ? p.doc : p.doc + "; range " + p.range_source);
     rows.push_back(std::move(row));
   }
   std::vector<size_t> width(header.size());
@@ -47,7 +55,7 @@ int run_params(const ConfigOptions& o, CommandContext& ctx) {
   auto print = [&](const std::vector<std::string>& r) {
     std::string line;
     for (size_t c = 0; c < r.size(); ++c) {
-      const bool numeric = c >= 2 && c <= 4;
+      const bool numeric = c >= 2 && c <= (ranged ? 5u : 4u);
       const size_t pad = width[c] - r[c].size();
       if (c + 1 == r.size()) {
         line += r[c];

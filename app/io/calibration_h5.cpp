@@ -60,6 +60,12 @@ void write_calibration_h5(const std::filesystem::path& path, const CalibrationRe
   h5.write_vector("/observations/noise_std",
                   obs.R.diagonal().cwiseSqrt().cwiseProduct(disp.factor), obs_units);
   if (obs.frame_times.size() > 0) h5.write_vector("/observations/frame_times", obs.frame_times, "s");
+  if (problem.curve_sampling) {
+    // Frame j was measured at frame_origin + frame_times(j) on the data file's clock.
+    h5.set_attribute("/observations", "frame_origin", problem.frame_origin);
+    h5.set_attribute("/observations", "alignment",
+                     problem.curve_sampling->alignment_channel.empty() ? "ecg" : "end-diastole");
+  }
   if (!problem.observation_file.empty()) {
     h5.set_attribute("/observations", "file", problem.observation_file.string());
   }
@@ -86,6 +92,18 @@ void write_calibration_h5(const std::filesystem::path& path, const CalibrationRe
   h5.write_vector("/estimate/eta_prior_std", summary.eta_prior_std, "1");
   h5.write_vector("/estimate/eta_mean", summary.eta_mean, "1");
   h5.write_matrix("/estimate/eta_covariance", summary.eta_covariance, "1", names, names);
+  if (const auto& c = results.prior_conflict) {
+    h5.write_vector("/estimate/prior_z", c->prior_z, "1");
+    h5.set_attribute("/estimate/prior_z", "description",
+                     "(eta - eta prior mean) / eta prior std: distance from the prior in prior std");
+    std::vector<std::int64_t> in_range(c->in_range.begin(), c->in_range.end());
+    h5.write_ints("/estimate/in_range", in_range);
+    h5.set_attribute("/estimate/in_range", "description", "1 inside the physiological range, 0 outside, -1 none");
+    h5.write_vector("/estimate/range_lower", Eigen::Map<const Eigen::VectorXd>(c->range_lower.data(), static_cast<Eigen::Index>(c->range_lower.size())), per);
+    h5.write_vector("/estimate/range_upper", Eigen::Map<const Eigen::VectorXd>(c->range_upper.data(), static_cast<Eigen::Index>(c->range_upper.size())), per);
+    h5.write_strings("/estimate/range_source", c->range_source);
+    h5.set_attribute("/estimate", "prior_conflict", c->describe());
+  }
   for (const char* v : {"prior_mean", "prior_std", "mean", "sigma_mean", "std", "eta_prior_mean",
                         "eta_prior_std", "eta_mean"}) {
     h5.attach_scale(std::string("/estimate/") + v, 0, par_axis, "parameter");
@@ -106,6 +124,32 @@ void write_calibration_h5(const std::filesystem::path& path, const CalibrationRe
   if (summary.metrics_after.relative_error_percent.size() == m) {
     h5.attach_scale("/fit/relative_error_after", 0, obs_axis, "observation");
   }
+
+  // The model beats as the sampler reads them, on the data's clock (frame j of the data at
+  // frame_origin + frame_times(j)), channels in the display unit of their observations.
+  const auto write_aligned = [&](const std::string& which, const std::optional<observers::AlignedBeat>& beat) {
+    if (!beat || !problem.curve_sampling) return;
+    const std::string g = "/fit/curves/" + which;
+    h5.write_vector(g + "/time", beat->times.array() + problem.frame_origin, "s");
+    const auto& channels = problem.curve_sampling->channels;
+    for (size_t c = 0; c < channels.size(); ++c) {
+      const auto first = std::find_if(obs.names.begin(), obs.names.end(), [&](const std::string& n) {
+        return n.rfind(channels[c] + "@", 0) == 0;
+      });
+      if (first == obs.names.end()) continue;
+      const auto i = static_cast<size_t>(first - obs.names.begin());
+      h5.write_vector(g + "/" + channels[c],
+                      beat->values.col(static_cast<Eigen::Index>(c)) * disp.factor(static_cast<Eigen::Index>(i)),
+                      disp.units[i]);
+    }
+    h5.set_attribute(g, "period", beat->period);
+    h5.set_attribute(g, "time_offset", problem.frame_origin - beat->origin);
+    h5.set_attribute(g, "description",
+                     "the model beat as the frames are read from it, on the data's time axis: "
+                     "model time + time_offset (periodic, linear between samples)");
+  };
+  write_aligned("prior", results.prior_aligned);
+  write_aligned("calibrated", results.calibrated_aligned);
 
   // Every iteration's ensemble, zero-padded so the groups sort ("/ensemble/07" < "/ensemble/12").
   int last_iteration = 0;
@@ -201,6 +245,15 @@ void write_calibration_h5(const std::filesystem::path& path, const CalibrationRe
   h5.set_attribute("/summary", "mean_relative_error_after", summary.metrics_after.mean_relative_error_percent);
   h5.set_attribute("/summary", "rms_normalised_residual_before", summary.metrics_before.rms_normalised_residual);
   h5.set_attribute("/summary", "rms_normalised_residual_after", summary.metrics_after.rms_normalised_residual);
+  if (const auto& ns = summary.noise_scale) {
+    h5.write_strings("/noise_scale/channels", ns->channels);
+    h5.write_vector("/noise_scale/factor", ns->weight().cwiseInverse().cwiseSqrt(), "1");
+    h5.write_vector("/noise_scale/shape", ns->shape, "1");
+    h5.write_vector("/noise_scale/scale", ns->scale, "1");
+    h5.set_attribute("/noise_scale", "description",
+                     "per channel: inverse-gamma posterior of the variance multiplier s^2; factor = "
+                     "1 / sqrt(E[1/s^2]) times the stated noise std");
+  }
   if (results.fit_report) write_fit_report_h5(h5, "/fit_report", *results.fit_report);
   if (results.map) write_least_squares_h5(h5, "/map", *results.map, problem.prior.units());
   prov.end_utc = utc_now();

@@ -7,6 +7,7 @@
 #include "app/calibration_setup.h"
 #include "estimation/fit_report.h"
 #include "estimation/least_squares.h"
+#include "estimation/prior_conflict.h"
 #include "app/io/results.h"
 #include "estimation/ut_calibration.h"
 #include "model/simulator.h"
@@ -35,10 +36,16 @@ struct CalibrationResults {
   Eigen::VectorXd estimated_theta;               // full parameter vector at the estimate
   std::optional<model::Trajectory> prior_curves;       // the model at the prior mean
   std::optional<model::Trajectory> calibrated_curves;  // the model at the estimate
+  // The same beats as the curve sampler reads them (observers::AlignedBeat): /fit/curves, drawn on
+  // the data's time axis by the fit figure.
+  std::optional<observers::AlignedBeat> prior_aligned, calibrated_aligned;
   // How the calibrated curves fit the data (estimation/fit_report.h): /fit_report, "fit_report".
   const estimation::FitReport* fit_report = nullptr;
   // The Ceres MAP run, when it was the method or the reference (least_squares.h): /map, "map".
   const estimation::LeastSquaresSummary* map = nullptr;
+  // The estimate's distance from the prior and its physiological ranges (prior_conflict.h):
+  // /estimate/prior_z, in_range; "prior_z", "in_range" per parameter; the report's column.
+  std::optional<estimation::PriorConflict> prior_conflict;
 };
 
 // The results file (written atomically; provenance.end_utc is set here).

@@ -86,6 +86,23 @@ void write_calibration_json(const std::filesystem::path& path, const std::string
     if (summary.truth_error_percent) {
       j["parameters"][summary.names[k]]["error_percent"] = (*summary.truth_error_percent)(i);
     }
+    if (const auto& c = results.prior_conflict) {
+      auto& q = j["parameters"][summary.names[k]];
+      q["prior_z"] = c->prior_z(i);
+      q["in_range"] = c->in_range[k] < 0 ? nlohmann::json(nullptr) : nlohmann::json(c->in_range[k] == 1);
+      if (c->in_range[k] >= 0) q["range"] = {c->range_lower[k], c->range_upper[k]};
+      if (!c->range_source[k].empty()) q["range_source"] = c->range_source[k];
+    }
+  }
+  if (results.prior_conflict) j["prior_conflict"] = results.prior_conflict->describe();
+  if (const auto& ns = summary.noise_scale) {
+    // The estimated noise per channel: factor = 1 / sqrt(E[1/s^2]) times the stated std.
+    const Eigen::VectorXd w = ns->weight();
+    for (size_t c = 0; c < ns->channels.size(); ++c) {
+      const auto i = static_cast<Eigen::Index>(c);
+      j["noise_scale"][ns->channels[c]] = {{"factor", 1.0 / std::sqrt(w(i))}, {"shape", ns->shape(i)},
+                                           {"scale", ns->scale(i)}};
+    }
   }
   for (int i = 0; i < obs.size(); ++i) {
     const auto k = static_cast<size_t>(i);
@@ -117,13 +134,27 @@ std::string calibration_report(const CalibrationResults& results) {
     << "status: " << estimation::to_string(summary.termination) << (summary.ok() ? "" : " (not a success)")
     << " -- " << summary.message << "\n\n";
   t << std::left << std::setw(14) << "parameter" << std::right << std::setw(12) << "prior"
-    << std::setw(14) << "estimate" << std::setw(12) << "+- std" << "  unit\n";
+    << std::setw(14) << "estimate" << std::setw(12) << "+- std" << "  unit"
+    << (results.prior_conflict ? "    prior z  physiological range" : "") << "\n";
   for (size_t k = 0; k < summary.names.size(); ++k) {
     const auto j = static_cast<Eigen::Index>(k);
     t << std::left << std::setw(14) << summary.names[k] << std::right << std::setw(12)
       << format_number(summary.theta_prior(j)) << std::setw(14)
       << format_number(summary.theta_of_eta_mean(j)) << std::setw(12)
-      << format_number(summary.theta_std(j), 2) << "  " << units[k] << "\n";
+      << format_number(summary.theta_std(j), 2) << "  " << std::left << std::setw(10) << units[k];
+    if (const auto& c = results.prior_conflict) {
+      t << std::right << std::setw(7) << format_number(c->prior_z(j), 2) << "  ";
+      if (c->in_range[k] >= 0) {
+        t << (c->in_range[k] ? "in " : "OUT ") << format_number(c->range_lower[k], 3) << "-"
+          << format_number(c->range_upper[k], 3);
+      } else {
+        t << "-";
+      }
+    }
+    t << "\n";
+  }
+  if (results.prior_conflict && !results.prior_conflict->absorbed_by.empty()) {
+    t << results.prior_conflict->describe() << "\n";
   }
   t << "\n" << std::left << std::setw(14) << "observation" << std::right << std::setw(11) << "observed"
     << std::setw(11) << "prior" << std::setw(11) << "calibrated" << std::setw(9) << "error" << "  unit\n";
@@ -161,6 +192,14 @@ std::string calibration_report(const CalibrationResults& results) {
     t << "start " << k + 1 << ": objective " << format_number(st.screen_objective, 4) << " -> "
       << format_number(st.objective, 4) << " (" << estimation::to_string(st.termination) << ", "
       << st.iterations << " iterations)\n";
+  }
+  if (const auto& ns = summary.noise_scale) {
+    t << "noise scale (estimated, times the stated std):";
+    const Eigen::VectorXd w = ns->weight();
+    for (size_t c = 0; c < ns->channels.size(); ++c) {
+      t << (c ? ", " : " ") << ns->channels[c] << " " << format_number(1.0 / std::sqrt(w(static_cast<Eigen::Index>(c))), 3);
+    }
+    t << "\n";
   }
   if (results.fit_report) t << "fit: " << results.fit_report->summary << "\n";
   if (results.map && results.problem->least_squares_reference) {

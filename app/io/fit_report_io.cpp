@@ -58,6 +58,7 @@ void add_fit_report_json(nlohmann::ordered_json& parent, const FitReport& r,
   const Shown s = shown(r);
   nlohmann::ordered_json j;
   j["summary"] = r.summary;
+  if (!r.prior_conflict.empty()) j["prior_conflict"] = r.prior_conflict;
   j["channels"] = nlohmann::ordered_json::array();
   for (size_t k = 0; k < r.channels.size(); ++k) {
     const auto& c = r.channels[k];
@@ -115,6 +116,7 @@ void write_fit_report_h5(Hdf5Writer& h5, const std::string& group, const FitRepo
   const std::string g = group;
   h5.create_group(g);
   h5.set_attribute(g, "summary", r.summary);
+  h5.set_attribute(g, "prior_conflict", r.prior_conflict);
   h5.set_attribute(g, "discrepancy_rms", options.discrepancy_rms);
   h5.write_strings(g + "/notes", r.notes);
 

@@ -52,23 +52,17 @@ struct ElastanceParameters {
   double P_ven = 5.0;    ///< [mmHg] systemic venous pressure
 };
 
-class ElastanceLv final : public LvCircuit {
+class ElastanceLv final : public ThreeStateLv<ElastanceLv, ElastanceParameters> {
  public:
   explicit ElastanceLv(const ElastanceParameters& p);
-  double period() const override { return 60.0 / p_.heart_rate; }
-  Eigen::VectorXd initial_state() const override;
-  void rhs(double t, const Eigen::VectorXd& y, Eigen::VectorXd& dy) const override;
-  Sample observe(double t, const Eigen::VectorXd& y) const override;
 
   /// Normalised ventricular elastance e(t) in [0, 1] (Stergiopulos 1996 double Hill, max 1).
   double activation(double t) const;
   /// Atrial activation a(t) in [0, 1]: 0.5 (1 - cos(2 pi s / T_la)) for s in [0, T_la].
   double atrial_activation(double t) const;
   double lv_pressure(double t, double V) const;
-  const ElastanceParameters& parameters() const { return p_; }
 
  private:
-  ElastanceParameters p_;
   double k_norm_ = 1.0;  // 1 / max of the double-Hill product over a beat
 };
 

@@ -30,7 +30,8 @@ std::vector<Sample> record(const LvCircuit& sim, double t0, Eigen::VectorXd y,
 
 }  // namespace
 
-Beat run_beat(const LvCircuit& sim, double dt_dense, int n_frames, const PeriodicOptions& opt) {
+Beat run_beat(const LvCircuit& sim, double dt_dense, int n_frames, const PeriodicOptions& opt,
+              double frame_offset) {
   const double T = sim.period();
   Dopri5Options o;
   o.rtol = opt.rtol;
@@ -82,7 +83,12 @@ Beat run_beat(const LvCircuit& sim, double dt_dense, int n_frames, const Periodi
   const int n_dense = static_cast<int>(std::lround(T / dt_dense));
   std::vector<double> ts;
   for (int k = 0; k <= n_dense; ++k) ts.push_back(beat.t_ed_cycle + std::min(k * dt_dense, T));
-  for (int k = 0; k < n_frames; ++k) ts.push_back(beat.t_ed_cycle + T * k / n_frames);
+  // Frame k at end-diastole + frame_offset + k T / n (wrapped into the beat), stamped k T / n.
+  auto frame_time = [&](int k) {
+    const double t = frame_offset + T * k / n_frames;
+    return t >= T ? t - T : t;
+  };
+  for (int k = 0; k < n_frames; ++k) ts.push_back(beat.t_ed_cycle + frame_time(k));
   std::sort(ts.begin(), ts.end());
   ts.erase(std::unique(ts.begin(), ts.end()), ts.end());
   auto all = record(sim, beat.t_ed_cycle, y_ed, ts, o);
@@ -98,7 +104,10 @@ Beat run_beat(const LvCircuit& sim, double dt_dense, int n_frames, const Periodi
     return s;
   };
   for (int k = 0; k <= n_dense; ++k) beat.dense.push_back(at(std::min(k * dt_dense, T)));
-  for (int k = 0; k < n_frames; ++k) beat.frames.push_back(at(T * k / n_frames));
+  for (int k = 0; k < n_frames; ++k) {
+    beat.frames.push_back(at(frame_time(k)));
+    beat.frames.back().t = T * k / n_frames;
+  }
   return beat;
 }
 

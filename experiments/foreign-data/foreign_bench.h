@@ -6,6 +6,9 @@
 
 #include <Eigen/Core>
 
+#include <algorithm>
+#include <cmath>
+
 #include <string>
 #include <vector>
 
@@ -61,14 +64,16 @@ struct Beat {
   int beats_to_periodic = 0;  ///< beats run before the beat-to-beat change met the tolerance
   double periodic_change = 0.0;  ///< the last beat-to-beat relative change
   std::vector<Sample> dense;     ///< noise-free samples every dt_dense, t in [0, T]
-  std::vector<Sample> frames;    ///< noise-free samples at t_k = k T / n_frames, k < n_frames
+  std::vector<Sample> frames;    ///< noise-free samples at t_k = k T / n_frames (+ frame_offset), k < n_frames
 };
 
 /// Runs beats from initial_state() until periodic, finds end-diastole (the instant of mitral
 /// closure before ejection = the maximum volume, since both valves are then closed) and records
 /// one beat from there. Throws std::runtime_error when no periodic state is reached.
+/// frame_offset [s], in [0, T): the frames are taken that long after end-diastole (an ECG trigger
+/// late on the R wave) and stamped from 0 on the file's clock (t_k = k T / n_frames).
 Beat run_beat(const LvCircuit& sim, double dt_dense = 1e-3, int n_frames = 30,
-              const PeriodicOptions& opt = {});
+              const PeriodicOptions& opt = {}, double frame_offset = 0.0);
 
 /// Clinical indices of a recorded beat (computed from Beat::dense).
 struct Indices {
@@ -82,5 +87,67 @@ struct Indices {
   double CO = 0.0;          ///< [L/min] SV * HR
 };
 Indices indices_of(const Beat& beat);
+
+/// The circuit around a ventricle whose pressure is a function of (t, V_lv) (elastance_lv.h,
+/// mooney_rivlin_lv.h): state y = [V_lv, V_la, P_c]; an elastance atrium with a raised-cosine
+/// twitch 0.5 (1 - cos(2 pi s / T_la)) starting t_la_onset before ventricular onset, diode
+/// valves, a three-element Windkessel and the pulmonary-venous inflow (equations: README, "The
+/// simulators"). P holds the fields E_la_min, E_la_max, V0_la, kick, t_la_onset, T_la, P_pv,
+/// R_pv, R_mv, R_av, Zc, R_sys, C_sys, P_ven (same names and units in both parameter structs).
+template <class P>
+double raised_cosine_atrium(double t, double period, const P& p) {
+  double s = t + p.t_la_onset;  // time since atrial onset
+  s -= period * std::floor(s / period);
+  if (s >= p.T_la) return 0.0;
+  return 0.5 * (1.0 - std::cos(2.0 * 3.141592653589793 * s / p.T_la));
+}
+
+template <class P>
+Sample three_state_sample(double t, const Eigen::VectorXd& y, double P_lv, double atrial, const P& p) {
+  Sample s = sample_with_volumes(t, y(0), y(1));
+  const double P_c = y(2);
+  s.P_lv = P_lv;
+  const double E_la = p.E_la_min + p.kick * atrial * (p.E_la_max - p.E_la_min);
+  s.P_la = E_la * (s.V_la - p.V0_la);
+  s.Q_pv = (p.P_pv - s.P_la) / p.R_pv;
+  s.Q_mv = std::max(s.P_la - s.P_lv, 0.0) / p.R_mv;
+  s.Q_av = std::max(s.P_lv - P_c, 0.0) / (p.R_av + p.Zc);
+  s.P_ao = P_c + p.Zc * s.Q_av;
+  s.Q_per = (P_c - p.P_ven) / p.R_sys;
+  return s;
+}
+
+template <class P>
+void three_state_rhs(const Sample& s, const P& p, Eigen::VectorXd& dy) {
+  dy(0) = s.Q_mv - s.Q_av;
+  dy(1) = s.Q_pv - s.Q_mv;
+  dy(2) = (s.Q_av - s.Q_per) / p.C_sys;
+}
+
+/// An LV circuit of the three states (V_lv, V_la, P_c) and the shared circulation above whose
+/// ventricle is one pressure law: Derived provides lv_pressure(t, V) [mmHg] and
+/// atrial_activation(t) in [0, 1]; P is its parameter struct (with heart_rate [bpm]).
+template <class Derived, class P>
+class ThreeStateLv : public LvCircuit {
+ public:
+  explicit ThreeStateLv(const P& p) : p_(p) {}
+  double period() const override { return 60.0 / p_.heart_rate; }
+  Eigen::VectorXd initial_state() const override {
+    Eigen::VectorXd y(3);
+    y << 120.0, 60.0, 80.0;  // [mL], [mL], [mmHg]
+    return y;
+  }
+  Sample observe(double t, const Eigen::VectorXd& y) const override {
+    const Derived& d = static_cast<const Derived&>(*this);
+    return three_state_sample(t, y, d.lv_pressure(t, y(0)), d.atrial_activation(t), p_);
+  }
+  void rhs(double t, const Eigen::VectorXd& y, Eigen::VectorXd& dy) const override {
+    three_state_rhs(observe(t, y), p_, dy);
+  }
+  const P& parameters() const { return p_; }
+
+ protected:
+  P p_;
+};
 
 }  // namespace foreign

@@ -1,6 +1,8 @@
 #include "foreign_cases.h"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <cstdio>
 #include <fstream>
 #include <random>
@@ -26,6 +28,8 @@ OneFibreParameters one_fibre_healthy() {
   p.heart_rate = 72.0;
   return p;
 }
+
+MooneyRivlinParameters mooney_rivlin_healthy() { return MooneyRivlinParameters{}; }
 
 std::string fmt(const char* f, double v) {
   char buf[64];
@@ -61,6 +65,10 @@ std::string model_line(const BenchCase& c) {
   if (c.model == "elastance") {
     return "time-varying elastance LV (double-Hill, Stergiopulos 1996) + exponential EDPVR, "
            "elastance atrium, diode valves, 3-element Windkessel";
+  }
+  if (c.model == "mooney-rivlin") {
+    return "thin-walled sphere, Mooney-Rivlin wall (Adkins & Rivlin 1952) + active stress prescribed "
+           "in time (Korakianitis & Shi 2006), elastance atrium, diode valves, 3-element Windkessel";
   }
   return "one-fibre LV (Arts 1991) + sarcomere active stress (Kerckhoffs 2003), elastance "
          "atrium, diode valves, 3-element Windkessel";
@@ -140,6 +148,56 @@ std::vector<BenchCase> bench_cases() {
     p.R_sys = 1.6; p.C_sys = 0.8; p.Zc = 0.08;  // high, stiff afterload
     cases.push_back({"one-fibre", "stiff", "stiff wall, high afterload (HFpEF-like), 60 bpm", p, 204});
   }
+  {
+    cases.push_back({"mooney-rivlin", "healthy", "healthy adult, 68 bpm, with atrial contraction",
+                     mooney_rivlin_healthy(), 301});
+    MooneyRivlinParameters n = mooney_rivlin_healthy();
+    n.kick = 0.0;
+    cases.push_back({"mooney-rivlin", "healthy-no-atrial", "healthy adult, 68 bpm, no atrial contraction",
+                     n, 304});
+    MooneyRivlinParameters p;  // dilated, hypocontractile (HFrEF-like)
+    p.heart_rate = 88.0;
+    p.V0 = 130.0; p.V_wall = 170.0;    // dilated, thinner [mL]
+    p.T_max = 16.0;                    // weak active stress for its size [kPa]
+    p.C1 = 1.2; p.C2 = 0.6;            // fibrotic [kPa]
+    p.P_pv = 14.0; p.R_sys = 0.85;     // raised preload, circulation
+    cases.push_back({"mooney-rivlin", "reduced", "reduced contractility, dilated (EF ~30 %), 88 bpm", p,
+                     302});
+    MooneyRivlinParameters q;  // hypertrophied, stiff, hypertensive (HFpEF-like)
+    q.heart_rate = 64.0;
+    q.V_wall = 210.0; q.V0 = 55.0;      // thick wall [mL]
+    q.C1 = 0.9; q.C2 = 0.45;            // stiff [kPa]
+    q.T_max = 28.0;                     // preserved active stress [kPa]
+    q.P_pv = 16.0;
+    q.R_sys = 1.6; q.C_sys = 0.8; q.Zc = 0.08;
+    cases.push_back({"mooney-rivlin", "stiff", "stiff wall, high afterload (HFpEF-like), 64 bpm", q, 303});
+  }
+  // Harder acquisitions (README "Harder acquisitions"): clinical frame counts, heart rates from 50
+  // to 110 bpm, noise 1-4 mL / mmHg, missing frames and a trigger 30-60 ms after end-diastole.
+  {
+    BenchCase c{"one-fibre", "healthy-20f", "healthy, 20 frames, trigger +40 ms, noise 3 mL / 3 mmHg",
+                one_fibre_healthy(), 211, 3.0, 3.0, 20, 0.040, {}};
+    cases.push_back(c);
+  }
+  {
+    ElastanceParameters p;  // the reduced case, at 25 frames with two dropped
+    p = std::get<ElastanceParameters>(cases[2].parameters);
+    cases.push_back({"elastance", "reduced-25f",
+                     "reduced contractility, 25 frames, 2 missing, trigger +30 ms, noise 4 mL / 2 mmHg",
+                     p, 113, 4.0, 2.0, 25, 0.030, {7, 16}});
+  }
+  {
+    ElastanceParameters p = elastance_healthy();
+    p.heart_rate = 110.0;  // tachycardia: the same ventricle, a short diastole
+    cases.push_back({"elastance", "healthy-110bpm", "healthy ventricle at 110 bpm, 25 frames, trigger +50 ms, "
+                     "noise 2 mL / 4 mmHg, 2 missing", p, 114, 2.0, 4.0, 25, 0.050, {3, 19}});
+  }
+  {
+    MooneyRivlinParameters p = mooney_rivlin_healthy();
+    p.heart_rate = 50.0;  // bradycardia: a long diastasis
+    cases.push_back({"mooney-rivlin", "healthy-50f", "healthy at 50 bpm, 50 frames, trigger +60 ms, "
+                     "noise 1 mL / 1 mmHg", p, 311, 1.0, 1.0, 50, 0.060, {}});
+  }
   return cases;
 }
 
@@ -147,24 +205,48 @@ std::unique_ptr<LvCircuit> make_circuit(const BenchCase& c) {
   if (const auto* e = std::get_if<ElastanceParameters>(&c.parameters)) {
     return std::make_unique<ElastanceLv>(*e);
   }
+  if (const auto* m = std::get_if<MooneyRivlinParameters>(&c.parameters)) {
+    return std::make_unique<MooneyRivlinLv>(*m);
+  }
   return std::make_unique<OneFibreLv>(std::get<OneFibreParameters>(c.parameters));
 }
+
+namespace {
+
+// The ventricle's own parameters, then those of the circuit both three-state simulators share
+// (three_state_sample in foreign_bench.h), in declaration order.
+template <class P>
+std::vector<NamedValue> with_circuit(std::vector<NamedValue> own, const P& p) {
+  own.insert(own.end(), {{"E_la_min", p.E_la_min, "mmHg/mL"}, {"E_la_max", p.E_la_max, "mmHg/mL"},
+                         {"V0_la", p.V0_la, "mL"},            {"kick", p.kick, "1"},
+                         {"t_la_onset", p.t_la_onset, "s"},   {"T_la", p.T_la, "s"},
+                         {"P_pv", p.P_pv, "mmHg"},            {"R_pv", p.R_pv, "mmHg s/mL"},
+                         {"R_mv", p.R_mv, "mmHg s/mL"},       {"R_av", p.R_av, "mmHg s/mL"},
+                         {"Zc", p.Zc, "mmHg s/mL"},           {"R_sys", p.R_sys, "mmHg s/mL"},
+                         {"C_sys", p.C_sys, "mL/mmHg"},       {"P_ven", p.P_ven, "mmHg"}});
+  return own;
+}
+
+}  // namespace
 
 std::vector<NamedValue> parameter_list(const BenchCase& c) {
   if (const auto* e = std::get_if<ElastanceParameters>(&c.parameters)) {
     const auto& p = *e;
-    return {{"heart_rate", p.heart_rate, "bpm"}, {"Ees", p.Ees, "mmHg/mL"},
+    return with_circuit({{"heart_rate", p.heart_rate, "bpm"}, {"Ees", p.Ees, "mmHg/mL"},
             {"V0_es", p.V0_es, "mL"},            {"A_ed", p.A_ed, "mmHg"},
             {"B_ed", p.B_ed, "1/mL"},            {"V0_ed", p.V0_ed, "mL"},
             {"tau1", p.tau1, "s"},               {"tau2", p.tau2, "s"},
-            {"m1", p.m1, "1"},                   {"m2", p.m2, "1"},
-            {"E_la_min", p.E_la_min, "mmHg/mL"}, {"E_la_max", p.E_la_max, "mmHg/mL"},
-            {"V0_la", p.V0_la, "mL"},            {"kick", p.kick, "1"},
-            {"t_la_onset", p.t_la_onset, "s"},   {"T_la", p.T_la, "s"},
-            {"P_pv", p.P_pv, "mmHg"},            {"R_pv", p.R_pv, "mmHg s/mL"},
-            {"R_mv", p.R_mv, "mmHg s/mL"},       {"R_av", p.R_av, "mmHg s/mL"},
-            {"Zc", p.Zc, "mmHg s/mL"},           {"R_sys", p.R_sys, "mmHg s/mL"},
-            {"C_sys", p.C_sys, "mL/mmHg"},       {"P_ven", p.P_ven, "mmHg"}};
+            {"m1", p.m1, "1"},                   {"m2", p.m2, "1"}},
+           p);
+  }
+  if (const auto* m = std::get_if<MooneyRivlinParameters>(&c.parameters)) {
+    const auto& p = *m;
+    return with_circuit({{"heart_rate", p.heart_rate, "bpm"}, {"V_wall", p.V_wall, "mL"},
+            {"V0", p.V0, "mL"},                  {"C1", p.C1, "kPa"},
+            {"C2", p.C2, "kPa"},                 {"T_max", p.T_max, "kPa"},
+            {"beta", p.beta, "1"},
+            {"T1", p.T1, "s"},                   {"T2", p.T2, "s"}},
+           p);
   }
   const auto& p = std::get<OneFibreParameters>(c.parameters);
   return {{"heart_rate", p.heart_rate, "bpm"},
@@ -205,6 +287,10 @@ std::vector<std::array<double, 3>> noisy_frames(const Beat& beat, const BenchCas
     const double nv = g();
     const double np = g();
     out.push_back({s.t, s.V_lv + c.noise_V * nv, s.P_lv + c.noise_P * np});
+    const int k = static_cast<int>(out.size()) - 1;
+    if (std::find(c.missing.begin(), c.missing.end(), k) != c.missing.end()) {
+      out.back()[1] = out.back()[2] = std::numeric_limits<double>::quiet_NaN();
+    }
   }
   return out;
 }
@@ -214,7 +300,7 @@ std::vector<BenchResult> write_bench(const std::filesystem::path& out) {
   std::vector<BenchResult> results;
   for (const auto& c : bench_cases()) {
     const auto sim = make_circuit(c);
-    BenchResult r{c, run_beat(*sim), {}};
+    BenchResult r{c, run_beat(*sim, 1e-3, c.frames, {}, c.frame_offset), {}};
     r.indices = indices_of(r.beat);
     results.push_back(r);
   }
@@ -227,17 +313,29 @@ std::vector<BenchResult> write_bench(const std::filesystem::path& out) {
          << "# model: " << model_line(c) << "\n"
          << "# case: " << c.name << " - " << c.description << "\n"
          << "# heart rate " << fmt("%.1f", x.heart_rate) << " bpm, period " << fmt("%.6f", r.beat.period)
-         << " s; t = 0 at end-diastole (mitral closure, maximum volume)\n";
+         << " s; t = 0 at end-diastole (mitral closure, maximum volume)"
+         << (c.frame_offset != 0.0 ? " in the dense reference" : "") << "\n";
     std::ostringstream csv;
     csv << head.str() << "# frames: " << r.beat.frames.size() << " per beat, t_k = k T / "
-        << r.beat.frames.size() << "\n"
+        << r.beat.frames.size() << "\n";
+    if (c.frame_offset != 0.0) {
+      csv << "# trigger " << fmt("%.0f", 1e3 * c.frame_offset)
+          << " ms after end-diastole: frame k at end-diastole + " << fmt("%.3f", c.frame_offset)
+          << " s + t_k (t = 0 is the trigger here)\n";
+    }
+    if (!c.missing.empty()) csv << "# missing frames (empty cells): " << c.missing.size() << "\n";
+    csv
         << "# noise V_lv: Gaussian, std " << fmt("%g", c.noise_V) << " mL\n"
         << "# noise P_lv: Gaussian, std " << fmt("%g", c.noise_P) << " mmHg\n"
         << "# seed " << c.seed << " (mt19937_64, Box-Muller)\n"
         << "# noise-free reference: " << c.file_stem() << ".dense.csv\n"
         << "time [s], V_lv [mL], P_lv [mmHg]\n";
     for (const auto& f : noisy_frames(r.beat, c)) {
-      csv << fmt("%.6f", f[0]) << ", " << fmt("%.3f", f[1]) << ", " << fmt("%.3f", f[2]) << "\n";
+      if (std::isnan(f[1])) {
+        csv << fmt("%.6f", f[0]) << ", , \n";
+      } else {
+        csv << fmt("%.6f", f[0]) << ", " << fmt("%.3f", f[1]) << ", " << fmt("%.3f", f[2]) << "\n";
+      }
     }
     write_file(out / (c.file_stem() + ".csv"), csv.str());
 
@@ -272,7 +370,14 @@ std::vector<BenchResult> write_bench(const std::filesystem::path& out) {
       << "    activation_onset: " << fmt("%.4f", activation_after_ed(r.beat))
       << "  # [s] ventricular activation onset after end-diastole (< 0: before)\n"
       << "    noise: {V_lv: " << fmt("%g", c.noise_V) << ", P_lv: " << fmt("%g", c.noise_P)
-      << ", seed: " << c.seed << "}  # [mL], [mmHg] Gaussian std\n"
+      << ", seed: " << c.seed << "}  # [mL], [mmHg] Gaussian std\n";
+    if (c.clinical()) {
+      y << "    acquisition: {frames: " << c.frames << ", trigger_after_ed: " << fmt("%.3f", c.frame_offset)
+        << ", missing_frames: [";
+      for (size_t k = 0; k < c.missing.size(); ++k) y << (k ? ", " : "") << c.missing[k];
+      y << "]}  # [1], [s], frame indices\n";
+    }
+    y
       << "    indices:\n"
       << "      EDV: " << fmt("%.1f", x.EDV) << "       # [mL]\n"
       << "      ESV: " << fmt("%.1f", x.ESV) << "       # [mL]\n"

@@ -4,6 +4,7 @@
 
 #include "elastance_lv.h"
 #include "foreign_bench.h"
+#include "mooney_rivlin_lv.h"
 #include "one_fibre_lv.h"
 
 #include <array>
@@ -18,14 +19,19 @@
 namespace foreign {
 
 struct BenchCase {
-  std::string model;        ///< "elastance" or "one-fibre"
+  std::string model;        ///< "elastance", "one-fibre" or "mooney-rivlin"
   std::string name;         ///< e.g. "healthy"
   std::string description;  ///< one line
-  std::variant<ElastanceParameters, OneFibreParameters> parameters;
+  std::variant<ElastanceParameters, OneFibreParameters, MooneyRivlinParameters> parameters;
   std::uint64_t seed = 1;   ///< noise seed (mt19937_64 + Box-Muller: identical on every platform)
   double noise_V = 2.0;     ///< [mL] Gaussian noise std on the exported V_lv frames
   double noise_P = 2.0;     ///< [mmHg] Gaussian noise std on the exported P_lv frames
+  // Acquisition (the clinical conditions of README "Harder acquisitions"):
+  int frames = 30;             ///< frames per beat
+  double frame_offset = 0.0;   ///< [s] trigger delay: frame 0 this long after end-diastole
+  std::vector<int> missing;    ///< frames written as empty cells (dropped out of the acquisition)
   std::string file_stem() const { return model + "-" + name; }
+  bool clinical() const { return frames != 30 || frame_offset != 0.0 || !missing.empty(); }
 };
 
 /// The bench: for each model healthy, healthy without atrial contraction, reduced
@@ -42,7 +48,8 @@ struct NamedValue {
 };
 std::vector<NamedValue> parameter_list(const BenchCase& c);
 
-/// The 30 measurement-like frames: Beat::frames plus Gaussian noise (n_frames x 3: t, V, P).
+/// The measurement-like frames: Beat::frames plus Gaussian noise (n_frames x 3: t, V, P); a missing
+/// frame has NaN V and P (its noise is drawn all the same, so the others keep theirs).
 std::vector<std::array<double, 3>> noisy_frames(const Beat& beat, const BenchCase& c);
 
 struct BenchResult {

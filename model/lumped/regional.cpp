@@ -452,6 +452,7 @@ ParameterSpace RegionalVentricle::default_parameters(const RegionalOptions& opti
   out.push_back({"K_patch", "Pa", 1e5, 0.0, 1e8,
                  "mean-field tethering stiffness K (c_p - 1); 0: pure MultiPatch (regional.h)",
                  "passive_stiffness", 0});
+  set_physiological_ranges(out);
   const Parameter& s0 = sphere[sphere.index_or_throw("sigma0")];
   const int N = options.patches();
   const bool aha = N == 17;
@@ -467,6 +468,9 @@ ParameterSpace RegionalVentricle::default_parameters(const RegionalOptions& opti
                                   : " of patch " + xx;
     out.push_back({"sigma0_" + xx, s0.unit, s0.nominal, s0.lower, s0.upper,
                    "contractility" + where + " [the sphere's sigma0]", "contractility", p + 1});
+    out.back().range_lower = s0.range_lower;
+    out.back().range_upper = s0.range_upper;
+    out.back().range_source = s0.range_source;
     out.push_back({"Td_" + xx, "s", td[static_cast<size_t>(p)], 0.0, 1.0,
                    "activation (depolarisation) time" + where + std::string(" [pattern '") +
                        to_string(options.activation) + "']",

@@ -318,7 +318,49 @@ ParameterSpace LumpedSphere::default_parameters(Atrium atrium) {
     add("R_pv", "Pa s/m^3", 8.0e5, 1e4, 1e9,
         "pulmonary-venous resistance, 0.006 mmHg s/mL [KS06]", "preload_resistance");
   }
+  set_physiological_ranges(p);
   return ParameterSpace(std::move(p));
+}
+
+void set_physiological_ranges(std::vector<Parameter>& p) {
+  // Physiological ranges (docs/models.md s.8.1 lists them with the full references). Sources:
+  // [Hud05] Hudsmith et al. 2005 CMR volumes; [Lan15] Lang et al. 2015 chamber quantification;
+  // [VB04] Vinnakota & Bassingthwaighte 2004 myocardial density; [HMK98] Hunter, McCulloch & ter
+  // Keurs 1998 tension; [Pau07] Paulus et al. 2007 (tau, filling pressure); [Rau09] Rautaharju et
+  // al. 2009 (QT); [Wes09] Westerhof, Lankhaar & Westerhof 2009 (Windkessel); [s.7] derived from
+  // the index ranges of docs/models.md s.7; [D4] a model-internal parameter with no measured
+  // value: the default (or [KS06]'s) x/÷ 4, the 95 % band of a 70 % log prior around it.
+  const auto range = [&](const std::string& name, double lo, double hi, const char* source) {
+    for (Parameter& q : p) {
+      if (q.name == name) {
+        q.range_lower = lo;
+        q.range_upper = hi;
+        q.range_source = source;
+      }
+    }
+  };
+  const auto d4 = [&](const std::string& name) {
+    for (const Parameter& q : p) {
+      if (q.name == name) range(name, q.nominal / 4, q.nominal * 4, "[D4]");
+    }
+  };
+  range("rho", 1000.0, 1100.0, "[VB04] myocardium 1053 kg/m^3");
+  range("R0", 0.020, 0.031, "[Hud05] EDV 83-300 mL as EDV ~ R0^3 from the defaults (144 mL at 24 mm)");
+  range("d0", 0.006, 0.020, "[Lan15] LV wall 6-11 mm at end-diastole; unloaded and hypertrophied thicker");
+  range("sigma0", 1.5e4, 2.0e5, "[HMK98] peak isometric tension of myocardium ~100 kPa");
+  range("k_RS", 10.0, 60.0, "[Pau07] relaxation time constant tau 17-100 ms (> 48 ms: impaired)");
+  range("APD", 0.20, 0.45, "[Rau09] QT interval 350-460 ms (APD + activation spread)");
+  range("period", 0.5, 1.5, "[s.7] resting heart rates 40-120 bpm");
+  range("R_d", 6.0e7, 3.0e8, "[s.7] mean aortic pressure 70-110 mmHg / cardiac output 3-8 L/min");
+  range("R_p", 3.0e6, 3.0e7, "[Wes09] characteristic impedance 5-10 % of peripheral resistance");
+  range("C_p", 3.75e-9, 2.25e-8, "[Wes09] total arterial compliance 0.5-3 mL/mmHg");
+  range("P_at0", 267.0, 4000.0, "[Pau07] atrial pressure 2-30 mmHg (> 16 mmHg: raised filling pressure)");
+  range("P_pv", 267.0, 4000.0, "[Pau07] pulmonary-venous pressure 2-30 mmHg (> 16 mmHg: raised)");
+  for (const char* name : {"c1", "c2", "eta", "Es", "mu", "alpha", "k0", "k_ATP", "K_at", "K_ar", "K_p",
+                           "C_d", "P_sv", "P_at_kick", "C_cav", "c_exp", "b_exp", "E_at_min",
+                           "E_at_max", "V_at0", "R_pv", "K_patch"}) {
+    d4(name);
+  }
 }
 
 LumpedSphere::LumpedSphere(SphereOptions options)

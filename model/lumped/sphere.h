@@ -53,7 +53,7 @@ class LumpedSphere final : public SteppableSimulator {
                Atrium atrium = Atrium::kPrescribed);
 
   // The parameters with their healthy-preset nominal values, SI units, bounds and sources.
-  static ParameterSpace default_parameters(Atrium atrium = Atrium::kPrescribed);
+  static ParameterSpace default_parameters(Atrium atrium = Atrium::kPrescribed);  // ranges set
 
   std::string name() const override {
     return atrium_ == Atrium::kChamber ? "lumped-sphere-atrium" : "lumped-sphere";
@@ -92,5 +92,9 @@ class LumpedSphere final : public SteppableSimulator {
   std::vector<int> index_;  // position in parameters_ of each model parameter (by name)
   std::vector<int> atrium_index_;  // of shell::atrium_names() (atrial chamber only)
 };
+
+// Sets Parameter::range_* (physiological ranges with their sources, docs/models.md s.8.1) of the
+// lumped sphere's parameters found in p by name; the regional ventricle's globals reuse it.
+void set_physiological_ranges(std::vector<Parameter>& p);
 
 }  // namespace sigmaheart::model::lumped

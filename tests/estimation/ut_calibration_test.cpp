@@ -385,6 +385,7 @@ UtOptions map_options(SigmaOptions sigma = {}) {
   o.mode = UtMode::kMap;
   o.max_iterations = 100;
   o.tolerance = 1e-10;
+  o.objective_tolerance = 0.0;  // these checks want the MAP to 1e-10, not to the noise: step only
   return o;
 }
 
@@ -650,6 +651,72 @@ TEST(UtCalibration, MapModeEndsDivergedWhenNoDampedStepIsAcceptable) {
   EXPECT_EQ(relinearisations, 3);
   EXPECT_EQ(s.eta_mean(0), 0.0);  // the prior mean, the last accepted centre
   EXPECT_NE(s.message.find("no step lowers the MAP objective"), std::string::npos);
+}
+
+// A creeping valley (issue 45, item 1): z_k = exp(t0 + t1) exp(-0.025 k (t0 - t1)) +
+// 0.001 sin(60 (t0 - t1) + k / 2), k = 0..11, against y_k = 1 / (1 + k / 4) (a curve the model
+// cannot make: 10 noise std RMS at the MAP, noise 0.01), prior N(0, 1) on each: the data fix the
+// sum t0 + t1 and hardly the difference, so the posterior correlation is -0.99, and the small
+// ripple (a forward map whose output moves in steps, like a valve event on a time grid) makes the
+// sigma points' slope along the valley unreliable. With a tight step tolerance (1e-4) the damped
+// steps creep along the valley; the objective stop ends the run where Phi stops falling.
+struct ValleyTwin {
+  Map h = [](const Eigen::VectorXd& t, Eigen::Ref<Eigen::VectorXd> z) {
+    for (int k = 0; k < 12; ++k) {
+      z(k) = std::exp(t(0) + t(1)) * std::exp(-0.025 * k * (t(0) - t(1))) +
+             0.001 * std::sin(60.0 * (t(0) - t(1)) + 0.5 * k);
+    }
+    return model::Status::Ok();
+  };
+  UtSummary run(double objective_tolerance, double tolerance = 1e-4) const {
+    Eigen::VectorXd y(12);
+    for (int k = 0; k < 12; ++k) y(k) = 1.0 / (1.0 + 0.25 * k);
+    UtOptions opt = map_options({SigmaRule::kCanonical});
+    opt.sample_scale = 0.1;
+    opt.tolerance = tolerance;
+    opt.objective_tolerance = objective_tolerance;
+    opt.max_iterations = 100;
+    return UtCalibration(FunctionModel(2, 12, h), identity_parameters(Eigen::Vector2d::Zero(), Eigen::Vector2d::Ones()),
+                         observations(y, Eigen::MatrixXd::Identity(12, 12) * 1e-4), opt)
+        .run();
+  }
+};
+
+TEST(UtCalibration, ACreepingValleyTwinConvergesOnTheObjective) {
+  const ValleyTwin v;
+  const UtSummary before = v.run(0.0);
+  const UtSummary after = v.run(0.01);
+  const Eigen::MatrixXd& P = after.eta_covariance;
+  const double rho = P(0, 1) / std::sqrt(P(0, 0) * P(1, 1));
+  std::printf("valley: rho %.4f; step-only stop: %s after %zu iterations, %d runs, Phi %.4f; objective stop: %s "
+              "after %zu iterations, %d runs, %d finishing steps, Phi %.4f\n",
+              rho, to_string(before.termination), before.iterations.size(), before.simulations, before.objective,
+              to_string(after.termination), after.iterations.size(), after.simulations, after.extrapolations,
+              after.objective);
+  EXPECT_LT(rho, -0.99);
+  ASSERT_EQ(after.termination, UtTermination::kConverged) << after.message;
+  EXPECT_LE(after.iterations.size(), 20u);
+  EXPECT_LE(after.simulations, 120);
+  // Where it stopped, Phi is within 0.01 per observation of where the step-only run went on to.
+  EXPECT_LT(after.objective - before.objective, 0.01 * 12);
+}
+
+TEST(UtCalibration, TheObjectiveStopEndsARunWhoseStepsNeverMeetTheStepTolerance) {
+  // tolerance 0: no step is ever below it, so only the objective can say "converged"; it does,
+  // in words, once Phi falls by less than 0.01 per observation over two iterations (12 here).
+  const ValleyTwin v;
+  const UtSummary s = v.run(0.01, 0.0);
+  ASSERT_EQ(s.termination, UtTermination::kConverged) << s.message;
+  EXPECT_EQ(s.message.rfind("objective: Phi fell by ", 0), 0u) << s.message;
+  const size_t n = s.iterations.size();
+  ASSERT_GE(n, 3u);
+  EXPECT_LT(s.iterations[n - 3].objective - s.objective, 0.01 * 12);
+  // Without it the same run cannot say converged: it goes on at the same Phi (to the damping
+  // limit after 80 iterations, "diverged") where the objective stop ended after 13.
+  const UtSummary off = v.run(0.0, 0.0);
+  EXPECT_NE(off.termination, UtTermination::kConverged) << off.message;
+  EXPECT_GT(off.iterations.size(), 3 * n) << off.message;
+  EXPECT_LT(std::abs(off.objective - s.objective), 0.01 * 12);
 }
 
 // theta in (0, 1) through a logit; z = theta observed at 1.5: the ML point is outside the bounds.

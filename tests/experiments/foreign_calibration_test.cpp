@@ -1,5 +1,5 @@
 // The targets of issue 11 on the foreign-data bench (experiments/foreign-data/README.md,
-// "Calibrating the foreign cases"): every one of the 8 foreign cases, calibrated by the UT with the
+// "Calibrating the foreign cases"): every one of the 8 issue-11 foreign cases, calibrated by the UT with the
 // shipped config experiments/foreign-data/calibrate-foreign.yaml, must reach a volume mean relative
 // error under 5 %, a pressure RMS under 8 % of the observed peak, a MAP objective not above the
 // prior's, a status "converged", and an objective within 1.2 times that of the multi-start Ceres
@@ -29,13 +29,20 @@ const std::string kDir = std::string(SIGMAHEART_SOURCE_DIR) + "/";
 
 struct ForeignCase {
   std::string name;
-  double period = 0;  // [s]
+  double period = 0;             // [s]
+  double noise_V = 2, noise_P = 2;  // [mL], [mmHg]: the case's own (harder acquisitions: 1-4)
 };
 
 std::vector<ForeignCase> foreign_cases() {
   std::vector<ForeignCase> out;
   for (const auto& c : YAML::LoadFile(kDir + "configs/data/foreign/cases.yaml")["cases"]) {
-    out.push_back({c["name"].as<std::string>(), c["period"].as<double>()});
+    // The eight cases of issue 11 (elastance and one-fibre phenotypes, 30 frames): the Mooney-Rivlin
+    // family and the harder acquisitions of issue 45 are measured by experiments/foreign-data/run
+    // (12 of 16 meet these targets; README "Outcome (issue 45)"), not asserted here.
+    const std::string model = c["model"].as<std::string>();
+    if (model == "mooney-rivlin" || c["acquisition"]) continue;
+    out.push_back({c["name"].as<std::string>(), c["period"].as<double>(), c["noise"]["V_lv"].as<double>(),
+                   c["noise"]["P_lv"].as<double>()});
   }
   return out;
 }
@@ -69,7 +76,8 @@ TEST_P(ForeignCalibration, ShippedConfigMeetsTheIssueTargets) {
   const app::Config config = app::load_config(
       kDir + "experiments/foreign-data/calibrate-foreign.yaml",
       {"observations.file=" + kDir + "configs/data/foreign/" + c.name + ".csv",
-       "period=" + std::to_string(c.period)});
+       "period=" + std::to_string(c.period), "observations.noise.V_lv=" + std::to_string(c.noise_V) + " mL",
+       "observations.noise.P_lv=" + std::to_string(c.noise_P) + " mmHg"});
   const app::CalibrationProblem problem = app::parse_calibration_problem(config);
   const auto simulator = config.simulator.make();
   estimation::SimulatorForwardModel forward(*simulator, *problem.observer, problem.prior.names());
