@@ -14,6 +14,7 @@ import os
 from typing import Callable, Dict, List
 
 import sigmaplot_calibrate
+import sigmaplot_observe
 import sigmaplot_regional
 import sigmaplot_simulate
 import sigmaplot_studies
@@ -25,6 +26,7 @@ PLOTTERS: Dict[str, Callable] = {
     "personalize": sigmaplot_regional.plot_personalize,
     "sensitivity": sigmaplot_studies.plot_sensitivity,
     "specificity": sigmaplot_studies.plot_specificity,
+    "observe": sigmaplot_observe.plot_observe,
 }
 
 

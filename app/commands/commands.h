@@ -56,6 +56,7 @@ void register_benchmark(CLI::App& app, CommandContext& ctx);  // 3D mechanics be
 void add_land_benchmark(CLI::App& benchmark, CommandContext& ctx);      // benchmark_land.cpp
 void add_arostica_benchmark(CLI::App& benchmark, CommandContext& ctx);  // benchmark_arostica.cpp
 void register_serve(CLI::App& app, CommandContext& ctx);      // UM-Bridge server (app/blackbox/)
+void register_observe(CLI::App& app, CommandContext& ctx);    // volume curves from images
 
 // Helpers shared by the commands ---------------------------------------------------------------
 
