@@ -1,7 +1,6 @@
 // The cases of the foreign regional bench (experiments/regional-foreign/README.md) and the
-// statistics its targets are stated in, shared by the test (tests/experiments/regional_foreign_test.cpp)
-// and the benchmark (bench/regional_foreign_bench.cpp); summarize.py computes the same from the
-// JSON summaries. Header-only, no sigmaheart dependency.
+// statistics its targets are stated in, for the benchmark (bench/regional_foreign_bench.cpp);
+// summarize.py computes the same from the JSON summaries. Header-only, no sigmaheart dependency.
 #pragma once
 
 #include <algorithm>
