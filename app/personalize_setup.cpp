@@ -1,11 +1,16 @@
 #include "app/personalize_setup.h"
 
+#include "app/personalize_start.h"
+
 #include "app/calibration_setup.h"
 #include "app/errors.h"
 #include "app/io/display.h"
 #include "app/io/observation_file.h"
+#include "model/regional_volume_shares.h"
+#include "model/time_shift.h"
 #include "model/units.h"
 
+#include <algorithm>
 #include <cmath>
 #include <set>
 #include <utility>
@@ -49,22 +54,6 @@ std::vector<int> parse_segments(const ConfigNode& node, const std::vector<int>& 
   return out;
 }
 
-// The regional parameters (in segment order) of the family a config key names: the key is the
-// family tag itself or the common stem "<key>_" of the family's parameter names.
-std::vector<int> regional_family(const model::ParameterSpace& space, const std::string& key) {
-  std::set<std::string> families;
-  for (const auto& p : space.all()) {
-    if (p.regional()) families.insert(p.family);
-  }
-  for (const auto& f : families) {
-    const std::vector<int> members = space.regional(f);
-    bool stem = true;
-    for (int i : members) stem = stem && space[i].name.rfind(key + "_", 0) == 0;
-    if (f == key || stem) return members;
-  }
-  return {};
-}
-
 // Names a config may use for the estimated parameters (for did-you-mean).
 std::vector<std::string> estimable_names(const model::ParameterSpace& space) {
   std::vector<std::string> out;
@@ -82,7 +71,7 @@ std::vector<std::string> estimable_names(const model::ParameterSpace& space) {
 }
 
 void parse_observations(const Config& config, const ConfigNode& obs, PersonalizeProblem& out) {
-  obs.check_keys({"file", "channels", "noise", "start_beats"});
+  obs.check_keys({"file", "channels", "noise", "start_beats", "align", "period", "shares"});
   const auto sim = config.simulator.make();
   const auto sim_channels = sim->channels();
   const ConfigNode file_node = obs.require_child("file");
@@ -142,9 +131,77 @@ void parse_observations(const Config& config, const ConfigNode& obs, Personalize
   }
   out.start_beats = obs.optional<int>("start_beats", 0);
   if (out.start_beats < 0) obs["start_beats"].fail("expected an integer >= 0");
+  out.align_end_diastole = obs.has("align") && obs["align"].as_choice({"ecg", "end-diastole"}) == "end-diastole";
+  out.shares_from_data = obs.has("shares") && obs["shares"].as_choice({"model", "data"}) == "data";
+  out.share_exponents =
+      out.shares_from_data && model::RegionalVolumeShares::regional_channels(sim_channels).size() == 17;
+  out.period_from_data = obs.has("period") && obs["period"].as_choice({"model", "data"}) == "data";
+  if (out.period_from_data) {
+    // One beat of evenly spaced frames: the period is the span plus one spacing (as
+    // observers::measured_frames() infers it).
+    const Eigen::Index n = tr.times.size();
+    const double spacing = (tr.times(n - 1) - tr.times(0)) / static_cast<double>(n - 1);
+    for (Eigen::Index k = 1; k < n; ++k) {
+      if (std::abs(tr.times(k) - tr.times(k - 1) - spacing) > 0.05 * spacing) {
+        obs["period"].fail("period: data needs evenly spaced frames over one beat; frames " + std::to_string(k - 1) +
+                           " and " + std::to_string(k) + " (lines " + std::to_string(curves.lines[static_cast<size_t>(k - 1)]) +
+                           ", " + std::to_string(curves.lines[static_cast<size_t>(k)]) + ") are not");
+      }
+    }
+    out.period = spacing * static_cast<double>(n);
+    out.notes.push_back("period from the data: " + std::to_string(n) + " frames every " +
+                        std::to_string(1e3 * spacing) + " ms, " + std::to_string(1e3 * out.period) + " ms");
+  }
+  if (out.align_end_diastole && out.start_beats < 1) {
+    obs["start_beats"].fail("align: end-diastole needs start_beats >= 1 (the data's first frame may fall before the "
+                            "model's end-diastole)");
+  }
   out.file_times = tr.times;
+  out.file_curves = curves;
   out.data.times = tr.times.array() + out.start_beats * out.period;
-  if (!(tr.times(0) >= 0.0)) file_node.fail("frame times must start at or after 0");
+  if (!out.align_end_diastole && !(tr.times(0) >= 0.0)) {
+    file_node.fail("frame times must start at or after 0 (times after the ECG trigger; or align: end-diastole)");
+  }
+}
+
+// The nominal values the set-up sets before the priors are read (a prior without `prior:` is
+// centred there): the period from the data, a calibrate result's posterior means (held globals,
+// and the centres of per-segment families) and a measured activation map.
+void set_nominal_values(const Config& config, const ConfigNode& sec, PersonalizeProblem& out) {
+  model::ParameterSpace& space = out.space;
+  if (out.period_from_data) space.set_nominal(space[*space.find("period")].name, out.period);
+  if (out.start) {
+    for (const auto& q : out.start->globals.parameters) {
+      if (space.index(q.name)) space.set_nominal(q.name, q.theta_nominal);
+    }
+    for (const auto& [stem, theta] : out.start->family_centres) {
+      const std::vector<int> members = per_segment_family(config.simulator.parameters, stem);
+      const std::string& family = config.simulator.parameters[members.front()].family;
+      for (const auto& p : space.all()) {
+        if (p.family == family) space.set_nominal(p.name, std::clamp(theta, p.lower, p.upper));
+      }
+    }
+  }
+  if (!out.activation_file.empty()) {
+    const io::ActivationMap map = io::read_activation_map_csv(out.activation_file);
+    for (size_t i = 0; i < map.segments.size(); ++i) {
+      const auto idx = space.find("activation_time", map.segments[i]);
+      if (!idx) {
+        throw InputError(out.activation_file.string(), map.lines[i], 1,
+                         "segment " + std::to_string(map.segments[i]) + " has no activation time Td of its own in model " +
+                             config.simulator.model + " (outside its segments, or tied in a zone)");
+      }
+      const model::Parameter& p = space[*idx];
+      if (!(map.times[i] >= p.lower && map.times[i] < std::min(p.upper, out.period))) {
+        throw InputError(out.activation_file.string(), map.lines[i], 1,
+                         "activation time of segment " + std::to_string(map.segments[i]) + " = " +
+                             std::to_string(1e3 * map.times[i]) + " ms lies outside [0, period)");
+      }
+      space.set_nominal(p.name, map.times[i]);
+    }
+    out.notes.push_back("activation times of " + std::to_string(map.segments.size()) + " segments from " +
+                        out.activation_file.string());
+  }
 }
 
 // The parameters of the per-segment family that config key `key` names and their segment numbers;
@@ -152,7 +209,7 @@ void parse_observations(const Config& config, const ConfigNode& obs, Personalize
 std::pair<std::vector<int>, std::vector<int>> family_members(const Config& config, const ConfigNode& est,
                                                             const std::string& key,
                                                             const model::ParameterSpace& space) {
-  std::vector<int> members = regional_family(space, key), segments;
+  std::vector<int> members = per_segment_family(space, key), segments;
   if (members.empty()) {
     throw InputError(est.key_location(key), "'" + key + "' is not a per-segment parameter family of " +
                                                 config.simulator.model + " (e.g. sigma0, Td, stiff, scar)");
@@ -187,14 +244,20 @@ void parse_zones(const Config& config, const ConfigNode& est, PersonalizeProblem
   }
   try {
     out.space = model::ZonedSimulator::zoned_space(inner, out.zones);
+    // shares: data adds the volume share law's exponents per AHA level (17 segments).
+    out.space = model::RegionalVolumeShares::shares_space(out.space, out.share_exponents);
+    // align: end-diastole adds the time shift the filter may refine (model/time_shift.h).
+    if (out.align_end_diastole) out.space = model::TimeShift::shifted_space(out.space);
   } catch (const std::invalid_argument& e) {
     est.fail(e.what());
   }
 }
 
-void parse_estimate(const Config& config, const ConfigNode& est, PersonalizeProblem& out) {
+void parse_estimate(const Config& config, const ConfigNode& sec, PersonalizeProblem& out) {
+  const ConfigNode est = sec.require_child("estimate");
   if (!est.is_map() || est.size() == 0) est.fail("expected a map of parameter -> {prior, spread, ...}");
   parse_zones(config, est, out);
+  set_nominal_values(config, sec, out);
   const model::ParameterSpace& space = out.space;
   for (const auto& key : est.keys()) {
     const ConfigNode node = est[key];
@@ -229,6 +292,29 @@ void parse_estimate(const Config& config, const ConfigNode& est, PersonalizeProb
       out.families.push_back(key);
     }
   }
+  if (out.start && out.start->estimate_globals && out.start->globals.size() > 0) {
+    // The calibrated globals join the estimate with the calibration's posterior as their prior
+    // (its correlations kept: the correlation matrix is block-diagonal, config block first).
+    const estimation::Prior& g = out.start->globals;
+    for (const auto& q : g.parameters) {
+      for (size_t c = 0; c < out.prior.parameters.size(); ++c) {
+        if (out.prior.parameters[c].name != q.name) continue;
+        throw InputError(est.key_location(out.families[c]),
+                         "'" + q.name + "' is co-estimated from the calibrate result (start: globals: estimate); "
+                         "remove it here or hold the globals (globals: hold)");
+      }
+    }
+    const int a = out.prior.size(), b = g.size();
+    Eigen::MatrixXd C = Eigen::MatrixXd::Identity(a + b, a + b);
+    if (out.prior.correlation.size() > 0) C.topLeftCorner(a, a) = out.prior.correlation;
+    C.bottomRightCorner(b, b) = g.correlation;
+    for (const auto& q : g.parameters) {
+      out.prior.parameters.push_back(q);
+      out.segments.push_back(0);
+      out.families.push_back(q.name);
+    }
+    out.prior.correlation = C;
+  }
   for (size_t a = 0; a < out.prior.parameters.size(); ++a) {
     for (size_t b = 0; b < a; ++b) {
       if (out.prior.parameters[a].name == out.prior.parameters[b].name) {
@@ -241,7 +327,8 @@ void parse_estimate(const Config& config, const ConfigNode& est, PersonalizeProb
 void parse_filter(const ConfigNode& f, PersonalizeProblem& out) {
   f.check_keys({"beats", "passes", "first_fraction", "pass_growth", "tempering", "sigma_scale",
                 "forgetting", "r_inflation", "sigma_points", "kappa", "spin_up", "failure_policy",
-                "max_retries", "shrink", "inflation", "threads", "map_iterations", "map_tolerance"});
+                "max_retries", "shrink", "inflation", "threads", "map_iterations", "map_tolerance",
+                "noise_scale"});
   estimation::RoukfOptions& o = out.filter;
   o.beats = f.optional<int>("beats", 1);
   if (o.beats < 1) f["beats"].fail("expected an integer >= 1");
@@ -280,6 +367,18 @@ void parse_filter(const ConfigNode& f, PersonalizeProblem& out) {
   o.inflation = f.optional<double>("inflation", o.inflation);
   o.ensemble.threads = f.optional<int>("threads", 0);
   if (o.ensemble.threads < 0) f["threads"].fail("expected an integer >= 0 (0: all cores)");
+  if (const ConfigNode ns = f["noise_scale"]; ns.defined()) {
+    estimation::ChannelNoisePrior prior;
+    if (ns.is_scalar()) {
+      ns.as_choice({"estimate"});
+    } else {
+      ns.check_keys({"shape", "scale"});
+      prior.shape = ns.optional<double>("shape", prior.shape);
+      prior.scale = ns.optional<double>("scale", prior.scale);
+      if (const std::string e = prior.validate(); !e.empty()) ns.fail(e);
+    }
+    o.noise_scale = prior;
+  }
   o.R = (out.r_inflation * out.noise_si).array().square().matrix().asDiagonal();
   o.refine = estimation::refine_by_time_step;
   if (const std::string e = o.validate(); !e.empty()) f.fail(e);
@@ -300,7 +399,7 @@ void parse_truth(const model::ParameterSpace& space, const ConfigNode& truth, Pe
       const bool in_family = out.families[k] == key && out.segments[k] > 0;
       if (v.is_sequence()) {
         if (!in_family) continue;
-        const auto segments = regional_family(space, key).size();
+        const auto segments = per_segment_family(space, key).size();
         if (v.size() != segments) v.fail("expected " + std::to_string(segments) + " values, one per segment");
         t(j) = v[static_cast<size_t>(out.segments[k] - 1)].as_quantity(q.unit);
         used = true;
@@ -320,7 +419,7 @@ void parse_truth(const model::ParameterSpace& space, const ConfigNode& truth, Pe
 PersonalizeProblem parse_personalize(const Config& config) {
   const ConfigNode root = config.file.root();
   const ConfigNode sec = root.require_child("personalize");
-  sec.check_keys({"observations", "estimate", "filter", "truth"});
+  sec.check_keys({"observations", "estimate", "filter", "truth", "start", "activation"});
   const model::ParameterSpace& space = config.simulator.parameters;
   PersonalizeProblem out;
   const auto period_index = space.find("period");
@@ -328,8 +427,23 @@ PersonalizeProblem parse_personalize(const Config& config) {
   out.period = space.nominal()(*period_index);
 
   parse_observations(config, sec.require_child("observations"), out);
-  parse_estimate(config, sec.require_child("estimate"), out);
+  const std::filesystem::path base = std::filesystem::path(config.file.file()).parent_path();
+  if (const ConfigNode start = sec["start"]; start.defined()) {
+    out.start = parse_calibrated_start(start, base, space, config.simulator.model);
+    out.notes.push_back(std::string("start: ") + out.start->file.string() + " (calibrate, model " + out.start->model +
+                        "), " + std::to_string(out.start->globals.size()) + " global parameter(s) " +
+                        (out.start->estimate_globals ? "co-estimated" : "held") +
+                        (out.start->family_centres.empty() ? "" : ", centring the per-segment " + out.start->family_centres.front().first));
+  }
+  if (const ConfigNode act = sec["activation"]; act.defined()) {
+    if (!act.is_map()) act.fail("expected {file: ACTIVATION-MAP.csv}");
+    act.check_keys({"file"});
+    const ConfigNode f = act.require_child("file");
+    out.activation_file = input_file(f, f.as<std::string>(), base, "activation map");
+  }
+  parse_estimate(config, sec, out);
   parse_filter(sec["filter"], out);
+  out.filter.period = out.period;
   out.filter.base_theta = out.space.nominal();
   const ConfigNode file_node = sec["observations"]["file"];
   if (const std::string e = out.data.validate(); !e.empty()) file_node.fail(e);

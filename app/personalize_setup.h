@@ -9,6 +9,19 @@
 //       channels: all            # or [V_seg01, V_seg07]: columns of the file to assimilate
 //       noise: 0.05 mL           # or {default: 0.05 mL, V_seg17: 0.1 mL}; "%" = of the column mean
 //       start_beats: 8           # file time 0 = this many beats after the model's initial state
+//       align: ecg               # ecg: file times are after the ECG trigger (the model's t = 0);
+//                                # end-diastole: the data's ED frame meets the model's ED
+//       period: model            # model: the model's period | data: the frames' beat (span +
+//                                # mean spacing) sets the model's period
+//       shares: model            # model | data: the regional volumes re-weighted by the volume
+//                                # shares of the data over its beat (docs/models.md s.3.3);
+//                                # with 17 segments also the share law's exponents vshare_basal,
+//                                # vshare_mid, vshare_apical (0 unless estimated)
+//     start:                     # optional: a calibrate result (app/personalize_start.h)
+//       file: results/calibrate.h5
+//       globals: estimate        # estimate (co-estimated, its posterior as prior) | hold
+//     activation:                # optional: a measured activation map, Td_XX per segment
+//       file: data/activation-map.csv   # segment, time [ms]
 //     estimate:                  # per-segment families and global parameters
 //       sigma0: {segments: all, prior: 5.3e4, spread: 50 %, transform: log}
 //       # or zones: one estimated parameter <key>_<zone> per zone sets all its segments
@@ -30,6 +43,8 @@
 //       shrink: 0.5
 //       inflation: 0.1
 //       threads: 2               # --threads overrides
+//       noise_scale: estimate    # optional: an unknown noise scale per channel, InvGamma(3, 4) on
+//                                # s^2 (or {shape: 3, scale: 4}); docs/estimation.md s.4.8
 //     truth:                     # optional (twin experiments): per family a list or one value
 //       sigma0: [21.2 kPa, 21.2 kPa, 53 kPa, ...]
 //
@@ -38,13 +53,17 @@
 #pragma once
 
 #include "app/config.h"
+#include "app/io/observation_file.h"
+#include "app/personalize_start.h"
 #include "estimation/prior.h"
 #include "estimation/roukf/roukf.h"
 #include "model/zoned_simulator.h"
 
 #include <Eigen/Core>
 
+#include <cmath>
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -68,9 +87,31 @@ struct PersonalizeProblem {
   std::vector<std::string> families;      // per estimated parameter: the config key
   std::vector<model::ParameterZone> zones; // tied segments (empty: none); wrap the simulator
   model::ParameterSpace space;            // the simulator's, zoned when zones are given
+  io::ObservationCurves file_curves;      // the whole observation file (SI)
+  bool align_end_diastole = false;        // observations: align: end-diastole
+  bool shares_from_data = false;          // observations: shares: data
+  bool share_exponents = false;           // ... with 17 segments: vshare_basal/mid/apical parameters
+  bool period_from_data = false;          // observations: period: data
+  std::optional<CalibratedStart> start;   // personalize: start:
+  std::filesystem::path activation_file;  // personalize: activation: file:
+  // What the set-up did to the data and the model (alignment, shares, period, start), in words, for
+  // the report and the results files; filled by parse_personalize and prepare_personalize_model.
+  std::vector<std::string> notes;
+  double data_ed_time = std::nan("");     // [s] file time of the data's end-diastole (align)
+  double model_ed_time = std::nan("");    // [s] the model's end-diastole in its beat (align)
+  Eigen::VectorXd volume_shares;          // shares: data, per regional channel of the model
 };
 
 // Every problem is an InputError at the offending key (file:line:column).
 PersonalizeProblem parse_personalize(const Config& config);
+
+// The simulator `personalize` runs and the model times of the frames (docs/estimation.md s.4.9):
+// `simulator` in a ZonedSimulator for the zones, in a RegionalVolumeShares for `shares: data`, and
+// problem.data.times moved so that the data's end-diastole meets the model's (`align:
+// end-diastole`). Both need one run of the model at the prior mean (its periodic beat). Adds to
+// problem.notes. InputError at the offending key when the data or the model cannot serve (no
+// regional volume channels, unobserved segments without V_lv in the file, a run that fails).
+std::unique_ptr<model::SteppableSimulator> prepare_personalize_model(
+    const Config& config, PersonalizeProblem& problem, std::unique_ptr<model::SteppableSimulator> simulator);
 
 }  // namespace sigmaheart::app

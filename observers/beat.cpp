@@ -118,6 +118,16 @@ VolumeLandmarks volume_landmarks(const BeatGrid& grid, const Eigen::Ref<const Ei
   return l;
 }
 
+model::Status end_diastole_time(const Eigen::Ref<const Eigen::VectorXd>& times,
+                                const Eigen::Ref<const Eigen::VectorXd>& volume, const BeatOptions& options,
+                                double& t_ed) {
+  BeatGrid grid;
+  if (model::Status s = make_beat_grid(times, volume, options, grid); !s.ok()) return s;
+  t_ed = volume_landmarks(grid, grid.unique_samples(volume), options).ed_time;
+  if (grid.periodic) t_ed = grid.wrap(t_ed);
+  return model::Status::Ok();
+}
+
 std::string BeatOptions::validate() const {
   if (!(plateau_tolerance >= 0.0 && plateau_tolerance < 0.5)) {
     return "beat plateau_tolerance must lie in [0, 0.5)";

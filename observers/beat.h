@@ -122,6 +122,14 @@ struct VolumeLandmarks {
 VolumeLandmarks volume_landmarks(const BeatGrid& grid, const Eigen::Ref<const Eigen::VectorXd>& v,
                                  const BeatOptions& options);
 
+// End-diastole of a volume curve sampled at `times` and read as a beat by `options`: the onset
+// of its end-diastolic plateau (VolumeLandmarks::ed_time), wrapped into [times(0), times(0) +
+// period) when the beat is periodic: end-diastole as `calibrate` finds it (observations_from_curves,
+// CurveSampler), for `personalize` (align: end-diastole). Fails like make_beat_grid.
+model::Status end_diastole_time(const Eigen::Ref<const Eigen::VectorXd>& times,
+                                const Eigen::Ref<const Eigen::VectorXd>& volume,
+                                const BeatOptions& options, double& t_ed);
+
 enum class Interpolation {
   kLinear,  // piecewise linear between samples
   kCubic,   // cubic Hermite with the centred-difference slopes of derivative(): C1, exact on

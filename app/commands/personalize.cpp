@@ -51,8 +51,8 @@ int run_personalize(const StudyOptions& o, CommandContext& ctx) {
         "model " + config.simulator.model + " cannot be advanced step by step; personalize needs a "
         "steppable simulator (lumped-regional, lumped-sphere, lv-3d, or external with steppable: true)");
   }
-  // Tied segments: the filter sees one parameter per zone (model/zoned_simulator.h).
-  if (!problem.zones.empty()) simulator = std::make_unique<model::ZonedSimulator>(std::move(simulator), problem.zones);
+  // Zones, the data's volume shares, the alignment on end-diastole (app/personalize_setup.h).
+  simulator = prepare_personalize_model(config, problem, std::move(simulator));
   const model::SteppableSimulator* steppable = simulator.get();
   estimation::RoukfOptions& filter = problem.filter;
   const int threads = set_up_study_ensemble(o, ctx, filter.ensemble);
@@ -67,6 +67,7 @@ int run_personalize(const StudyOptions& o, CommandContext& ctx) {
                  "{} threads",
                  problem.prior.size(), simulator->name(), problem.data.channels.size(), frames,
                  filter.beats, threads);
+    for (const std::string& note : problem.notes) spdlog::info("personalize: {}", note);
   }
   const estimation::RoukfSummary summary =
       estimation::run_roukf(*steppable, problem.prior, problem.data, filter);

@@ -290,6 +290,66 @@ ObservationCurves parse_observation_csv(std::istream& in, const std::string& sou
   return out;
 }
 
+ActivationMap parse_activation_map_csv(std::istream& in, const std::string& source) {
+  ActivationMap out;
+  double factor = 0.0;  // the time column's unit in s
+  int line_no = 0, last_line = 0;
+  std::string raw;
+  while (std::getline(in, raw)) {
+    ++line_no;
+    if (!raw.empty() && raw.back() == '\r') raw.pop_back();
+    const std::string line = raw.substr(0, raw.find('#'));
+    if (blank(line)) continue;
+    last_line = line_no;
+    const auto fields = split(line);
+    if (fields.size() != 2) {
+      throw InputError(source, line_no, fields.back().column,
+                       "expected two fields, 'segment, time [ms]', got " + std::to_string(fields.size()));
+    }
+    if (factor == 0.0) {  // the header
+      const HeaderField h = split_header(fields[1].text);
+      const auto conv = h.has_unit ? model::units::to_si(h.unit) : std::nullopt;
+      if (lower(fields[0].text) != "segment" || !conv || conv->si_unit != "s") {
+        throw InputError(source, line_no, fields[0].column,
+                         "expected the header 'segment, time [ms]' (a time unit in brackets), got '" + line + "'");
+      }
+      factor = conv->factor;
+      continue;
+    }
+    int segment = 0;
+    double t = 0.0;
+    const auto& a = fields[0].text;
+    const auto& b = fields[1].text;
+    const auto ra = std::from_chars(a.data(), a.data() + a.size(), segment);
+    if (ra.ec != std::errc() || ra.ptr != a.data() + a.size() || segment < 1) {
+      throw InputError(source, line_no, fields[0].column, "expected a segment number >= 1, got '" + a + "'");
+    }
+    const auto rb = std::from_chars(b.data(), b.data() + b.size(), t);
+    if (rb.ec != std::errc() || rb.ptr != b.data() + b.size() || !std::isfinite(t)) {
+      throw InputError(source, line_no, fields[1].column, "expected a time, got '" + b + "'");
+    }
+    for (size_t i = 0; i < out.segments.size(); ++i) {
+      if (out.segments[i] == segment) {
+        throw InputError(source, line_no, fields[0].column,
+                         "segment " + a + " is listed twice (also on line " + std::to_string(out.lines[i]) + ")");
+      }
+    }
+    out.segments.push_back(segment);
+    out.times.push_back(t * factor);
+    out.lines.push_back(line_no);
+  }
+  if (factor == 0.0 || out.segments.empty()) {
+    throw InputError(source, std::max(last_line, 1), 1, "expected a header 'segment, time [ms]' and one row per segment");
+  }
+  return out;
+}
+
+ActivationMap read_activation_map_csv(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path.string(), 0, 0, "cannot open the activation map");
+  return parse_activation_map_csv(in, path.string());
+}
+
 ObservationCurves read_observation_csv(const std::filesystem::path& path,
                                        const ColumnMapping& rename) {
   std::ifstream in(path, std::ios::binary);

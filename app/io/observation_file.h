@@ -76,6 +76,18 @@ PresentFrames drop_missing_frames(const ObservationCurves& curves,
 void check_frames_in_one_beat(const ObservationCurves& curves, double period,
                               const std::string& source, bool times_after_trigger);
 
+// A measured activation map (an electro-anatomical map reduced to the AHA segments): one time per
+// segment after the beat's electrical onset, in CSV with the header `segment, time [ms]` (any time
+// unit), '#' comments, one row per segment (`7, 42.5`). Segments are >= 1 and distinct; the
+// caller checks them against its model. InputError "file:line:column: ..." otherwise.
+struct ActivationMap {
+  std::vector<int> segments;   // 1-based
+  std::vector<double> times;   // [s]
+  std::vector<int> lines;      // per row, its line in the file
+};
+ActivationMap read_activation_map_csv(const std::filesystem::path& path);
+ActivationMap parse_activation_map_csv(std::istream& in, const std::string& source);
+
 // Writes the same format atomically (temporary file, then rename). trajectory is SI (or in the
 // units its channels name); time_unit is "ms" or "s"; display_units (one per channel, empty = the
 // channel's unit) choose the columns' units. comment lines (without '#') go first. Values are

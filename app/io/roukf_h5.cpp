@@ -1,7 +1,9 @@
 #include "app/io/roukf_h5.h"
 
+#include "app/io/display.h"
 #include "app/io/hdf5_writer.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <utility>
@@ -58,6 +60,38 @@ void write_roukf_h5(const std::filesystem::path& path, const RoukfResults& resul
     h5.write_vector("/estimate/eta", summary.eta, "1");
     h5.write_matrix("/estimate/eta_covariance", summary.eta_covariance, "1", names, names);
   }
+  if (summary.std_ratio.size() == p) {
+    // What the data told about each parameter: posterior over prior std (in eta).
+    h5.write_vector("/estimate/std_ratio", summary.std_ratio, "1");
+    h5.set_attribute("/estimate/std_ratio", "description",
+                     "posterior std / prior std of eta; >= " + format_number(estimation::kUninformedStdRatio, 2) +
+                         ": not informed by the data");
+  }
+  if (summary.channel_chi2.size() == m) {
+    // Per channel at the estimate: chi-square of the whitened residuals with the stated noise.
+    Eigen::VectorXd frames = summary.channel_frames.cast<double>(), lo(m), hi(m);
+    for (int c = 0; c < m; ++c) {
+      const int f = std::max(1, summary.channel_frames(c));
+      lo(c) = estimation::chi_square_quantile(f, 0.025) / f;
+      hi(c) = estimation::chi_square_quantile(f, 0.975) / f;
+    }
+    h5.write_vector("/channels/chi2_per_frame", summary.channel_chi2.cwiseQuotient(frames.cwiseMax(1.0)), "1");
+    h5.write_vector("/channels/frames", frames, "1");
+    h5.write_vector("/channels/band_lower", lo, "1");
+    h5.write_vector("/channels/band_upper", hi, "1");
+    h5.write_strings("/channels/names", channels);
+    if (summary.noise_scale_mode.size() == m) {
+      h5.write_vector("/channels/noise_scale", summary.noise_scale_mode.cwiseSqrt(), "1");
+      h5.set_attribute("/channels/noise_scale", "description", "sqrt of the posterior mode of s^2: the noise std in stated noise stds");
+    }
+  }
+  if (problem.volume_shares.size() > 0) h5.write_vector("/setup/volume_shares", problem.volume_shares, "1");
+  h5.create_group("/setup");
+  h5.set_attribute("/setup", "notes", problem.notes);
+  h5.set_attribute("/setup", "align", std::string(problem.align_end_diastole ? "end-diastole" : "ecg"));
+  h5.set_attribute("/setup", "data_ed_time", problem.data_ed_time);
+  h5.set_attribute("/setup", "model_ed_time", problem.model_ed_time);
+  h5.set_attribute("/setup", "period", problem.period);
   if (summary.map_runs > 0 && summary.eta_filter.size() == p) {
     // The filter's own estimate and the Gauss-Newton refinement after it (docs/estimation.md s.4.7).
     h5.write_vector("/map_refinement/eta_filter", summary.eta_filter, "1");
@@ -68,7 +102,7 @@ void write_roukf_h5(const std::filesystem::path& path, const RoukfResults& resul
     h5.set_attribute("/map_refinement", "shift_filter_std", summary.map_shift_std);
     h5.set_attribute("/map_refinement", "last_step_std", summary.map_last_step_std);
     h5.set_attribute("/map_refinement", "objective_at_filter_estimate", summary.map_statistic_filter);
-    h5.set_attribute("/map_refinement", "objective_at_estimate", summary.map_statistic);
+    h5.set_attribute("/map_refinement", "objective_at_estimate", summary.map_objective);
     h5.set_attribute("/map_refinement", "runs", summary.map_runs);
   }
 

@@ -6,6 +6,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <iomanip>
 #include <sstream>
@@ -41,6 +42,23 @@ std::string truth_consistency_lines(const estimation::RoukfSummary& summary) {
   }
   t << "\n";
   return t.str();
+}
+
+// Per channel at the estimate: chi-square per frame with the stated noise, its 95 % band and
+// (with an estimated noise scale) the scale, as a std factor (docs/estimation.md s.4.8).
+struct ChannelFit {
+  double chi2_per_frame, lower, upper, scale;
+  bool inside() const { return chi2_per_frame >= lower && chi2_per_frame <= upper; }
+};
+ChannelFit channel_fit(const estimation::RoukfSummary& summary, int c) {
+  const int f = std::max(1, summary.channel_frames(c));
+  return {summary.channel_chi2(c) / f, estimation::chi_square_quantile(f, 0.025) / f,
+          estimation::chi_square_quantile(f, 0.975) / f,
+          summary.noise_scale_mode.size() > c ? std::sqrt(summary.noise_scale_mode(c)) : std::nan("")};
+}
+
+bool informed(const estimation::RoukfSummary& summary, int j) {
+  return !(summary.std_ratio.size() > j && summary.std_ratio(j) >= estimation::kUninformedStdRatio);
 }
 
 }  // namespace
@@ -81,8 +99,30 @@ void write_roukf_json(const std::filesystem::path& path, const std::string& name
                            {"shift_filter_std", summary.map_shift_std},
                            {"last_step_std", summary.map_last_step_std},
                            {"objective_at_filter_estimate", summary.map_statistic_filter},
-                           {"objective_at_estimate", summary.map_statistic},
+                           {"objective_at_estimate", summary.map_objective},
                            {"runs", summary.map_runs}};
+  }
+  if (summary.channel_chi2.size() == static_cast<Eigen::Index>(problem.data.channels.size())) {
+    for (size_t c = 0; c < problem.data.channels.size(); ++c) {
+      const ChannelFit f = channel_fit(summary, static_cast<int>(c));
+      nlohmann::ordered_json e = {{"chi2_per_frame", f.chi2_per_frame},
+                                  {"band_95", {f.lower, f.upper}},
+                                  {"inside_band", f.inside()},
+                                  {"frames", summary.channel_frames(static_cast<Eigen::Index>(c))}};
+      if (std::isfinite(f.scale)) e["noise_scale"] = f.scale;
+      j["channels"][problem.data.channels[c]] = e;
+    }
+  }
+  j["setup"] = {{"align", problem.align_end_diastole ? "end-diastole" : "ecg"},
+                {"period", problem.period},
+                {"notes", problem.notes}};
+  if (std::isfinite(problem.data_ed_time)) {
+    j["setup"]["data_ed_time"] = problem.data_ed_time;
+    j["setup"]["model_ed_time"] = problem.model_ed_time;
+  }
+  if (problem.volume_shares.size() > 0) {
+    j["setup"]["volume_shares"] = std::vector<double>(problem.volume_shares.data(),
+                                                     problem.volume_shares.data() + problem.volume_shares.size());
   }
   j["threads"] = results.threads;
   j["wall_seconds"] = summary.wall_seconds;
@@ -97,6 +137,10 @@ void write_roukf_json(const std::filesystem::path& path, const std::string& name
     if (summary.has_estimate()) {
       e["lower_2sigma"] = summary.theta_lower(i);
       e["upper_2sigma"] = summary.theta_upper(i);
+    }
+    if (summary.std_ratio.size() > i) {
+      e["std_ratio"] = summary.std_ratio(i);
+      e["informed"] = informed(summary, static_cast<int>(i));
     }
     if (problem.filter.truth) {
       e["truth"] = (*problem.filter.truth)(i);
@@ -154,7 +198,22 @@ std::string roukf_report(const RoukfResults& results) {
       t << std::setw(9) << format_number(shown(j, (*truth)(j))) << std::setw(7)
         << (summary.error_percent.size() > j ? format_number(summary.error_percent(j), 2) : std::string("-")) << "%";
     }
-    t << "  " << shown_unit(j) << "\n";
+    t << "  " << shown_unit(j) << (informed(summary, j) ? "" : "  (not informed by the data)") << "\n";
+  }
+  for (const std::string& note : problem.notes) t << "set-up: " << note << "\n";
+  if (summary.channel_chi2.size() == static_cast<Eigen::Index>(problem.data.channels.size())) {
+    // Which curves the model fits within the stated noise (docs/estimation.md s.4.8).
+    t << "\nfit per channel at the estimate: chi2 per frame with the stated noise (95 % band)";
+    if (summary.noise_scale_mode.size() > 0) t << ", estimated noise scale";
+    t << "\n";
+    for (size_t c = 0; c < problem.data.channels.size(); ++c) {
+      const ChannelFit f = channel_fit(summary, static_cast<int>(c));
+      t << "  " << std::left << std::setw(10) << problem.data.channels[c] << std::right << std::setw(10)
+        << format_number(f.chi2_per_frame, 3) << "  " << interval(format_number(f.lower, 3), format_number(f.upper, 3))
+        << (f.inside() ? "          " : (f.chi2_per_frame > f.upper ? "  misfit  " : "  below   "));
+      if (std::isfinite(f.scale)) t << "  noise x " << format_number(f.scale, 3);
+      t << "\n";
+    }
   }
   // What a NIS outside its band means for the numbers above (docs/estimation.md s.4.5).
   if (std::isfinite(summary.nis_mean) && summary.nis_mean > summary.nis_band_upper) {

@@ -1,5 +1,6 @@
 #include "estimation/roukf/roukf.h"
 
+#include "estimation/channel_noise_scale.h"
 #include "estimation/enum_names.h"
 #include "estimation/fit_metrics.h"
 #include "estimation/roukf/steppable_forward_model.h"
@@ -92,6 +93,12 @@ std::string RoukfOptions::validate() const {
   if (!(first_fraction > 0.0 && first_fraction <= 1.0)) return "roukf: first_fraction must lie in (0, 1]";
   if (!(pass_growth > 0.0 && std::isfinite(pass_growth))) return "roukf: pass_growth must be positive";
   if (map_iterations < 0) return "roukf: map_iterations must be >= 0";
+  if (noise_scale) {
+    if (const std::string e = noise_scale->validate(); !e.empty()) return "roukf: " + e;
+    if (pass_mode != RoukfPassMode::kSplit || map_iterations == 0) {
+      return "roukf: an estimated noise scale needs split passes and the MAP refinement (map_iterations > 0)";
+    }
+  }
   if (!(map_tolerance > 0.0 && std::isfinite(map_tolerance))) return "roukf: map_tolerance must be positive";
   if (max_retries < 0) return "roukf: max_retries must be >= 0";
   if (!(shrink > 0 && shrink < 1)) return "roukf: shrink must lie in (0, 1)";
@@ -188,6 +195,9 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const Prior& 
       summary.nis_mean = nis_sum / summary.nis_frames;
       summary.nis_band_lower = chi_square_quantile(summary.nis_dof, 0.025) / summary.nis_frames;
       summary.nis_band_upper = chi_square_quantile(summary.nis_dof, 0.975) / summary.nis_frames;
+    }
+    if (summary.has_estimate() && summary.eta_covariance.rows() == prior.size()) {
+      summary.std_ratio = summary.eta_covariance.diagonal().cwiseMax(0.0).cwiseSqrt().cwiseQuotient(prior.std_eta());
     }
     if (options.truth && t != RoukfTermination::kInvalidInput) {
       const int passes = summary.pass_fractions.empty() ? options.beats
@@ -459,10 +469,18 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const Prior& 
   };
   const Eigen::MatrixXd S0 = prior.sqrt_covariance_eta();
   const Eigen::MatrixXd P0inv = Eigen::LLT<Eigen::MatrixXd>(prior.covariance_eta()).solve(Eigen::MatrixXd::Identity(p, p));
-  // Phi(eta) = |w|^2 + |b|^2 from the observations h(eta) at the present entries.
+  // Per entry, its channel (the per-channel chi-square and noise scales group by it).
+  std::vector<int> channel_of(static_cast<size_t>(n_obs));
+  for (int e = 0; e < n_obs; ++e) channel_of[static_cast<size_t>(e)] = entries[static_cast<size_t>(e)].channel;
+  // The data term of Phi: |w|^2, or with RoukfOptions::noise_scale the marginal over every
+  // channel's noise scale (estimation/channel_noise_scale.h).
+  auto data_term = [&](const Eigen::VectorXd& w) {
+    return options.noise_scale ? channel_marginal_misfit(*options.noise_scale, channel_of, m_all, w)
+                               : w.squaredNorm();
+  };
+  // Phi(eta) = data term + |b|^2 from the observations h(eta) at the present entries.
   auto objective = [&](const Eigen::VectorXd& eta, const Eigen::VectorXd& h) {
-    return whitened(y_obs - h).squaredNorm() +
-           S0.triangularView<Eigen::Lower>().solve(eta - eta0).squaredNorm();
+    return data_term(whitened(y_obs - h)) + S0.triangularView<Eigen::Lower>().solve(eta - eta0).squaredNorm();
   };
   // Fills summary.map_* from one whole-data run at the estimate theta(eta) (not counted in
   // member_runs); returns a message when that run fails.
@@ -470,8 +488,20 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const Prior& 
     const Eigen::VectorXd eta = x.tail(p);
     const EnsembleResult res = whole_data_runs(eta);
     if (!res.status[0].ok()) return "the run at the estimate failed: " + res.status[0].message;
-    const double phi = objective(eta, res.Z.row(0).head(n_obs).transpose());
+    const Eigen::VectorXd h = res.Z.row(0).head(n_obs).transpose();
+    const Eigen::VectorXd w = whitened(y_obs - h);
+    // The consistency statistic uses the stated noise, also when the scales are estimated.
+    const double phi = w.squaredNorm() + S0.triangularView<Eigen::Lower>().solve(eta - eta0).squaredNorm();
     if (!std::isfinite(phi)) return "the misfit at the estimate is not finite";
+    summary.channel_chi2 = Eigen::VectorXd::Zero(m_all);
+    summary.channel_frames = Eigen::VectorXi::Zero(m_all);
+    for (int e = 0; e < n_obs; ++e) {
+      summary.channel_chi2(channel_of[static_cast<size_t>(e)]) += w(e) * w(e);
+      summary.channel_frames(channel_of[static_cast<size_t>(e)]) += 1;
+    }
+    if (options.noise_scale) {
+      summary.noise_scale_mode = channel_noise_posterior(*options.noise_scale, channel_of, m_all, w).mode();
+    }
     summary.map_statistic = phi;
     summary.map_dof = n_obs;
     summary.map_frames = static_cast<int>(whiten.size());
@@ -517,8 +547,15 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const Prior& 
       out.eta = eta;
       out.state = res.Z.row(0).tail(ny).transpose();
       out.phi = objective(eta, obs.col(0));
-      out.A = W.transpose() * W + P0inv;
-      out.gradient = W.transpose() * w - P0inv * (eta - eta0);
+      // With noise scales: each entry weighted by E[1 / s_c^2] of its channel at this point
+      // (iteratively reweighted least squares on the marginal, channel_noise_scale.h).
+      Eigen::VectorXd weight = Eigen::VectorXd::Ones(n_obs);
+      if (options.noise_scale) {
+        const Eigen::VectorXd wc = channel_noise_posterior(*options.noise_scale, channel_of, m_all, w).weight();
+        for (int e = 0; e < n_obs; ++e) weight(e) = wc(channel_of[static_cast<size_t>(e)]);
+      }
+      out.A = W.transpose() * weight.asDiagonal() * W + P0inv;
+      out.gradient = W.transpose() * weight.cwiseProduct(w) - P0inv * (eta - eta0);
       if (!std::isfinite(out.phi) || !out.A.allFinite()) return "the misfit or its Jacobian is not finite";
       return {};
     };
@@ -579,6 +616,7 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const Prior& 
       x.head(ny) = at.state;
     }
     summary.map_note = note.str();
+    summary.map_objective = at.phi;
     if (summary.map_steps == 0 && !summary.map_converged) return;  // the filter's estimate stays
     const Eigen::MatrixXd P = at.A.llt().solve(Eigen::MatrixXd::Identity(p, p));
     const Eigen::VectorXd eta = x.tail(p);

@@ -27,6 +27,7 @@
 // per AHA zone from regional volume curves (p = 17, 18 members per step).
 #pragma once
 
+#include "estimation/channel_noise_scale.h"
 #include "estimation/ensemble.h"
 #include "estimation/prior.h"
 #include "estimation/sigma_points.h"
@@ -142,6 +143,13 @@ struct RoukfOptions {
   // kMapNotConverged (the estimate is not the MAP). 0: off.
   int map_iterations = 5;
   double map_tolerance = 0.01;
+  // Model error (docs/estimation.md s.4.8): with a value, the MAP refinement takes every observed
+  // channel's noise covariance as s_c^2 R_c with s_c^2 ~ InvGamma(*noise_scale) and integrates the
+  // scales out (estimation/channel_noise_scale.h): Gauss-Newton with each channel weighted by
+  // E[1 / s_c^2] at the current point, the Laplace covariance with those weights. A channel the
+  // model cannot fit then widens the posterior instead of dragging the parameters. Needs kSplit and
+  // map_iterations > 0. RoukfSummary::noise_scale_mode reports the scales.
+  std::optional<ChannelNoisePrior> noise_scale;
   // Full parameter vector for the parameters that are not estimated; empty: the nominal values.
   Eigen::VectorXd base_theta;
   // Initial model state; empty: simulator.initial_state(theta at the prior mean).
@@ -275,10 +283,23 @@ struct RoukfSummary {
   double map_shift_std = std::numeric_limits<double>::quiet_NaN();
   double map_last_step_std = std::numeric_limits<double>::quiet_NaN();
   double map_statistic_filter = std::numeric_limits<double>::quiet_NaN();  // Phi at the filter's estimate
+  double map_objective = std::numeric_limits<double>::quiet_NaN();  // Phi at the last accepted point
   int map_runs = 0;
   std::string map_note;
   Eigen::VectorXd eta_filter;
   Eigen::MatrixXd eta_covariance_filter;
+  // kSplit, from the run at the estimate: per observed channel (RoukfData::channels order) the
+  // chi-square sum_k w_k,c^2 of its whitened residuals with the stated noise, and the entries in it
+  // (its frames). A channel the model fits within the noise has channel_chi2 / channel_frames in
+  // [chi2_0.025, chi2_0.975](frames) / frames with probability 0.95.
+  Eigen::VectorXd channel_chi2;
+  Eigen::VectorXi channel_frames;
+  // With RoukfOptions::noise_scale: per channel, the posterior mode of s_c^2 at the estimate
+  // (1: the stated noise; 9: residuals three times the stated noise).
+  Eigen::VectorXd noise_scale_mode;
+  // Per parameter: the posterior std of eta over the prior std (1: the data did not inform it;
+  // kUninformedStdRatio and above: "not informed" in the reports).
+  Eigen::VectorXd std_ratio;
   std::vector<double> pass_fractions;  // kSplit: phi_b of every pass run
   double wall_seconds = 0.0;
 
@@ -287,6 +308,10 @@ struct RoukfSummary {
   std::string brief_report() const;  // one line
   std::string full_report() const;   // per parameter: estimate, +-2 sigma
 };
+
+// A parameter whose posterior std is at least this fraction of its prior std (in eta) is reported
+// as not informed by the data: they did not even halve its spread.
+inline constexpr double kUninformedStdRatio = 0.5;
 
 // Runs the filter. prior: one Gaussian parameter per estimated simulator parameter (by name).
 // The simulator is the prototype: each worker gets its own clone; the prototype itself is not

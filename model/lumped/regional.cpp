@@ -447,13 +447,25 @@ ParameterSpace RegionalVentricle::default_parameters(const RegionalOptions& opti
   const ParameterSpace sphere = LumpedSphere::default_parameters();
   std::vector<Parameter> out;
   for (const Parameter& p : sphere.all()) {
-    if (p.name != "sigma0") out.push_back(p);
+    if (p.name == "sigma0") continue;
+    out.push_back(p);
+    // The patches' length-dependent activation (regional.h, docs/models.md s.3.2).
+    if (p.name == "n0_slope") {
+      out.back().nominal = kRegionalN0Slope;
+      out.back().doc = "length-dependent activation gain dn0/de_c: Land et al. 2017 (beta0 2.3) on the sphere's "
+                       "fibre stretch [docs/models.md s.3.2]; 0: classical n0 = 1";
+    } else if (p.name == "n0_e_max") {
+      out.back().nominal = kRegionalN0EMax;
+      out.back().doc = "contractile strain where n0 reaches 1: stretch 1.2, the end of Land's ramp [docs/models.md s.3.2]";
+    }
   }
-  out.push_back({"K_patch", "Pa", 1e5, 0.0, 1e8,
-                 "mean-field tethering stiffness K (c_p - 1); 0: pure MultiPatch (regional.h)",
+  out.push_back({"K_patch", "Pa", kRegionalKPatch, 0.0, 1e8,
+                 "mean-field tethering stiffness K (c_p - 1); 0: pure MultiPatch [docs/models.md s.3.2: the 3D LBBB's "
+                 "septal and lateral excursions]",
                  "passive_stiffness", 0});
   set_physiological_ranges(out);
-  const Parameter& s0 = sphere[sphere.index_or_throw("sigma0")];
+  Parameter s0 = sphere[sphere.index_or_throw("sigma0")];
+  s0.nominal = kRegionalSigma0;
   const int N = options.patches();
   const bool aha = N == 17;
   std::vector<double> td(static_cast<size_t>(N), 0.0);
@@ -467,7 +479,8 @@ ParameterSpace RegionalVentricle::default_parameters(const RegionalOptions& opti
     const std::string where = aha ? " of segment " + xx + " (" + aha17_segment_names()[static_cast<size_t>(p)] + ")"
                                   : " of patch " + xx;
     out.push_back({"sigma0_" + xx, s0.unit, s0.nominal, s0.lower, s0.upper,
-                   "contractility" + where + " [the sphere's sigma0]", "contractility", p + 1});
+                   "contractility" + where + " [EF ~63 % with the length-dependent activation, docs/models.md s.3.2]",
+                   "contractility", p + 1});
     out.back().range_lower = s0.range_lower;
     out.back().range_upper = s0.range_upper;
     out.back().range_source = s0.range_source;

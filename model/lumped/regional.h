@@ -17,11 +17,25 @@
 //
 // K_patch (c_p - 1) is a mean-field tethering term, our addition to MultiPatch: its area-weighted
 // mean is K_patch (sum w_p c_p - 1) = 0, so it never loads the cavity, but it resists a patch's
-// area departing from its share. Reason: the sphere's passive law, tuned for the global
-// end-diastolic pressure-volume curve, is soft against active stresses of ~50 kPa, so without it
-// a late-activated LBBB patch grows to twice its area share while early ones shrink to a third
-// (measured with the sphere's defaults: shares 0.021-0.132 around 0.059). With the default 1e5 Pa
-// the LBBB shares stay within 0.046-0.072. K_patch = 0 is the pure MultiPatch of Walmsley et al.
+// area departing from its share. K_patch = 0 is the pure MultiPatch of Walmsley et al.
+//
+// Dyssynchrony (docs/models.md s.3.2): acute LBBB must lower EF, stroke volume and dP/dt max at
+// about the same EDV, as the 3D model lv-3d does (EF 64.4 -> 62.8 %, EDV -3.5 %). With a stiff
+// tether (1e5 Pa) and the classical n0 = 1 it did the opposite (EF 61.0 -> 69.5 %, ESV 56 -> 36
+// mL, EDV 144 -> 117 mL): the tether kept every patch within +-20 % of its share, so the late
+// patches' tension added to the early ones' into one long systole instead of stretching them, and
+// a shortened patch lost no force. Two changes, measured against lv-3d's LBBB beat:
+//  - the patches' length-dependent activation n0(e_c) (bcs/active_law.h) from the tension-length
+//    relation of human myocytes, h(lambda) = 1 + beta0 (lambda - 1), beta0 = 2.3, lambda <= 1.2
+//    (Land et al. 2017, J Mol Cell Cardiol 106:68), on the sphere's fibre stretch lambda =
+//    sqrt(1 + 2 e_c) from its unloaded radius, normalised at the cap and linearised in e_c:
+//    n0_slope = 1.43, n0_e_max = 0.22 (n0 = 0.69 at lambda = 1);
+//  - K_patch 1e4 Pa, at which the septal flash and rebound stretch and the lateral pre-stretch of
+//    the lumped 140 ms LBBB (mid-septal share 0.57 -> 1.99 of its end-diastolic value, basal
+//    lateral 1.40) come nearest those of the 3D heart (0.45 -> 1.69, lateral 1.81); 1e5 suppresses
+//    them (0.88 -> 1.17, 1.17), 0 overshoots the rebound (2.64).
+// The shortening-dependent loss of force needs a higher contractility for the same EF: the
+// segments' sigma0 is 60 kPa (the sphere's 53).
 //
 // Time discretisation: the sphere's (sphere.cpp; grid, step cutting and run loop shared in
 // shell.h): backward Euler on every equation, y, P_d and each
@@ -42,6 +56,12 @@
 #include <vector>
 
 namespace sigmaheart::model::lumped {
+
+// The regional model's own defaults (docs/models.md s.3.2; the sphere keeps n0 = 1 and 53 kPa).
+inline constexpr double kRegionalN0Slope = 1.43;  // [1] Land et al. 2017, beta0 2.3, linearised
+inline constexpr double kRegionalN0EMax = 0.22;   // [1] e_c at stretch 1.2
+inline constexpr double kRegionalKPatch = 1e4;    // [Pa] mean-field tether
+inline constexpr double kRegionalSigma0 = 6.0e4;  // [Pa] every segment's contractility
 
 // How activation times T_d,p (the nominal values of Td_XX) are set.
 enum class ActivationPattern {
@@ -96,8 +116,9 @@ class RegionalVentricle final : public SteppableSimulator {
   explicit RegionalVentricle(RegionalOptions options = {});
   RegionalVentricle(RegionalOptions options, ParameterSpace parameters);
 
-  // The sphere's parameters except sigma0, K_patch [Pa] (1e5), then per patch XX = 01..N:
-  //   sigma0_XX [Pa] (nominal: the sphere's sigma0), Td_XX [s] (from the activation pattern),
+  // The sphere's parameters except sigma0 (n0_slope, n0_e_max at the regional defaults above),
+  // K_patch [Pa] (1e4), then per patch XX = 01..N:
+  //   sigma0_XX [Pa] (60 kPa), Td_XX [s] (from the activation pattern),
   //   stiff_XX [1] (passive stiffness scale, 1), scar_XX [1] (non-contractile fraction, 0).
   static ParameterSpace default_parameters(const RegionalOptions& options = {});
 

@@ -84,10 +84,13 @@ std::vector<Preset> sphere_presets() {
   };
 }
 
-// The sphere's presets on a regional build: the sphere's contractility goes to every segment's
-// (found by its tag), every other value to the parameter of the same name.
+// The sphere's presets on a regional build: the sphere's contractility, scaled by the ratio of the
+// two models' defaults (the regional patches lose force as they shorten, docs/models.md s.3.2),
+// goes to every segment's (found by its tag), every other value to the parameter of the same name.
 std::vector<Preset> regional_presets(const ParameterSpace& regional) {
   std::vector<Preset> out = sphere_presets();
+  const ParameterSpace sphere = LumpedSphere::default_parameters();
+  const double scale = kRegionalSigma0 / sphere[sphere.index_or_throw("sigma0")].nominal;
   for (Preset& preset : out) {
     std::vector<std::pair<std::string, double>> values;
     for (const auto& [name, value] : preset.values) {
@@ -95,7 +98,7 @@ std::vector<Preset> regional_presets(const ParameterSpace& regional) {
         values.emplace_back(name, value);
         continue;
       }
-      for (int i : regional.regional("contractility")) values.emplace_back(regional[i].name, value);
+      for (int i : regional.regional("contractility")) values.emplace_back(regional[i].name, scale * value);
     }
     preset.values = std::move(values);
   }

@@ -25,7 +25,7 @@ TEST(PersonalizeCommand, OnePassMarksTheInfarctedSegmentsLow) {
     const auto& e = j["parameters"][seg(s)];
     EXPECT_EQ(e["segment"], s);
     EXPECT_LT(e["std"].get<double>(), e["prior_std"].get<double>()) << "segment " << s;
-    EXPECT_NEAR(e["truth"].get<double>(), kInfarct.count(s) ? 21200.0 : 53000.0, 1e-6);
+    EXPECT_NEAR(e["truth"].get<double>(), kInfarct.count(s) ? 24000.0 : 60000.0, 1e-6);
   }
 
   io::Hdf5Reader f(h5);
@@ -143,8 +143,8 @@ TEST(PersonalizeCommand, ZonesTieTheirSegmentsToOneParameterEach) {
   const auto cfg = write_file(
       dir / "zones.yaml",
       config_with("sigma0: {zones: {lad: [1, 2, 7, 8, 13, 14, 17], rest: [3, 4, 5, 6, 9, 10, 11, 12, 15, 16]}, "
-                  "prior: 5.3e4, spread: 50 %, transform: log}") +
-          "  truth: {sigma0_lad: 21.2 kPa, sigma0_rest: 53 kPa}\n");
+                  "prior: 6.0e4, spread: 50 %, transform: log}") +
+          "  truth: {sigma0_lad: 24 kPa, sigma0_rest: 60 kPa}\n");
   const CliRun r = cli({"personalize", cfg.string(), "-o", (dir / "zones.h5").string(), "--summary", json,
                         "--threads", "2"});
   ASSERT_EQ(r.code, 0) << r.err;
@@ -155,7 +155,7 @@ TEST(PersonalizeCommand, ZonesTieTheirSegmentsToOneParameterEach) {
   const double rest = j["parameters"]["sigma0_rest"]["value"].get<double>();
   EXPECT_LT(lad / kPrior, 0.7);
   EXPECT_GT(rest / kPrior, 0.7);
-  EXPECT_NEAR(j["parameters"]["sigma0_lad"]["truth"].get<double>(), 21200.0, 1e-6);
+  EXPECT_NEAR(j["parameters"]["sigma0_lad"]["truth"].get<double>(), 24000.0, 1e-6);
 }
 
 // Noise stated 10 times smaller than the data carry: the NIS lands far above its band and the
@@ -163,7 +163,7 @@ TEST(PersonalizeCommand, ZonesTieTheirSegmentsToOneParameterEach) {
 TEST(PersonalizeCommand, ANisAboveItsBandIsReportedInWords) {
   const auto dir = scratch_dir();
   std::string text = config_with("sigma0: {zones: {lad: [1, 2, 7, 8, 13, 14, 17], rest: [3, 4, 5, 6, 9, 10, 11, "
-                                 "12, 15, 16]}, prior: 5.3e4, spread: 50 %, transform: log}");
+                                 "12, 15, 16]}, prior: 6.0e4, spread: 50 %, transform: log}");
   text.replace(text.find("noise: 0.05 mL"), 14, "noise: 0.005 mL");
   const auto cfg = write_file(dir / "tight.yaml", text);
   const std::string json = (dir / "tight.json").string();

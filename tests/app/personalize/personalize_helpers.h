@@ -26,7 +26,7 @@ inline std::string twin_data() {
 }
 
 const std::set<int> kInfarct = {1, 2, 7, 8, 13, 14, 17};  // LAD territory of the twin's truth
-constexpr double kPrior = 5.3e4;                           // uniform prior sigma0 [Pa]
+constexpr double kPrior = 6.0e4;                           // uniform prior sigma0 [Pa]
 
 inline std::string seg(int s) { return std::string("sigma0_") + (s < 10 ? "0" : "") + std::to_string(s); }
 

@@ -532,6 +532,68 @@ TEST(Roukf, MapRefinementLandsOnTheMapPointOfANonlinearModel) {
   EXPECT_DOUBLE_EQ(s.theta_upper(1), prior[1].to_theta(s.eta(1) + 2 * std::sqrt(s.eta_covariance(1, 1))));
 }
 
+// With an unknown noise scale per channel (RoukfOptions::noise_scale, docs/estimation.md s.4.8) the
+// refinement lands on the MAP point of the marginal posterior: Phi = sum_c (2 a0 + n_c) log(1 +
+// |r_c|^2 / (2 b0)) + |b|^2, computed here from plain runs, has a Newton step below 1e-4 posterior
+// std at the estimate. Data with four times the stated noise in z1: its scale comes out near 3
+// (the prior pulls 8 frames towards 1), the covariance is the weighted Laplace one, and the whole-data NIS still uses the stated noise.
+TEST(Roukf, NoiseScalesLandOnTheMarginalMapPointAndWidenThePosterior) {
+  LinearSimulator sim = correlated_start();
+  sim.nonlinear = true;
+  RoukfData data = make_data(sim, 8);
+  const Prior prior = log_prior();
+  RoukfOptions o = split_options();
+  const RoukfSummary plain = run_roukf(sim, prior, data, o);  // the stated noise for reference
+  ASSERT_TRUE(plain.ok()) << plain.message;
+  // Channel z1: an alternating error of 0.2, four times the stated 0.05 (two parameters cannot
+  // follow it), so the scale's posterior mode is about (4 + 8 x 16 / 2) / (3 + 4 + 1) = 8.5: s ~ 2.9.
+  for (int k = 0; k < 8; ++k) data.values(k, 0) += (k % 2 ? -0.2 : 0.2);
+  o.noise_scale = ChannelNoisePrior{};
+  const RoukfSummary s = run_roukf(sim, prior, data, o);
+  ASSERT_TRUE(s.ok()) << s.message << " / " << s.map_note;
+  const ChannelNoisePrior np;
+  auto phi = [&](const VectorXd& eta) {
+    const VectorXd z = observations(sim, prior, data, eta);
+    VectorXd r(16);
+    std::vector<int> of(16);
+    for (int k = 0; k < 8; ++k) {
+      for (int c = 0; c < 2; ++c) {
+        r(2 * k + c) = (data.values(k, c) - z(2 * k + c)) / std::sqrt(o.R(c, c));
+        of[static_cast<size_t>(2 * k + c)] = c;
+      }
+    }
+    const VectorXd b = prior.sqrt_covariance_eta().triangularView<Eigen::Lower>().solve(eta - prior.mean_eta());
+    return channel_marginal_misfit(np, of, 2, r) + b.squaredNorm();
+  };
+  const double h = 1e-4;
+  VectorXd g(2);
+  MatrixXd Hs(2, 2);
+  for (int i = 0; i < 2; ++i) {
+    const VectorXd ei = VectorXd::Unit(2, i) * h;
+    g(i) = (phi(s.eta + ei) - phi(s.eta - ei)) / (2 * h);
+    for (int j = 0; j < 2; ++j) {
+      const VectorXd ej = VectorXd::Unit(2, j) * h;
+      Hs(i, j) = (phi(s.eta + ei + ej) - phi(s.eta + ei - ej) - phi(s.eta - ei + ej) + phi(s.eta - ei - ej)) / (4 * h * h);
+    }
+  }
+  const VectorXd step = -Hs.llt().solve(g);
+  EXPECT_LT(std::sqrt(step.dot(0.5 * Hs * step)), 1e-4);
+  // The scales: z1 about 2.9, z2 about 1 or below.
+  ASSERT_EQ(s.noise_scale_mode.size(), 2);
+  EXPECT_GT(std::sqrt(s.noise_scale_mode(0)), 2.0);
+  EXPECT_LT(std::sqrt(s.noise_scale_mode(1)), 1.3);
+  EXPECT_GT(s.eta_covariance(0, 0), plain.eta_covariance(0, 0));  // a wider posterior
+  // Per channel chi-square with the stated noise, and the whole-data statistic from it.
+  ASSERT_EQ(s.channel_chi2.size(), 2);
+  EXPECT_EQ(s.channel_frames(0), 8);
+  EXPECT_NEAR(s.channel_chi2.sum() + prior.sqrt_covariance_eta().triangularView<Eigen::Lower>()
+                                         .solve(s.eta - prior.mean_eta()).squaredNorm(),
+              s.map_statistic, 1e-9 * s.map_statistic);
+  EXPECT_GT(s.channel_chi2(0) / 8.0, 4.0);
+  ASSERT_EQ(s.std_ratio.size(), 2);
+  EXPECT_NEAR(s.std_ratio(1), std::sqrt(s.eta_covariance(1, 1)) / prior[1].std_eta, 1e-15);
+}
+
 // A whole-data member that fails keeps the filter's estimate; the run ends as "MAP refinement not
 // converged" (not a success) and says why. Serial members run in order, each over all 8 frames:
 // the first advance of member 1 (eta + h e_1) is call c + 8 after the c calls of the filter.
