@@ -6,6 +6,7 @@
 #include "app/personalize_setup.h"
 #include "app/sensitivity_setup.h"
 #include "app/specificity_setup.h"
+#include "app/therapy_setup.h"
 
 namespace sigmaheart::app {
 
@@ -28,6 +29,7 @@ const ConfigSections& builtin_config_sections() {
       {"specificity", [](const Config& c) { parse_specificity_section(c); }},
       {"sensitivity", [](const Config& c) { parse_sensitivity(c); }},
       {"personalize", [](const Config& c) { parse_personalize(c); }},
+      {"therapy", [](const Config& c) { parse_therapy(c); }},
   });
   return sections;
 }

@@ -17,6 +17,7 @@ import sigmaplot_calibrate
 import sigmaplot_regional
 import sigmaplot_simulate
 import sigmaplot_studies
+import sigmaplot_therapy
 from sigmaplot_common import text
 
 PLOTTERS: Dict[str, Callable] = {
@@ -25,6 +26,7 @@ PLOTTERS: Dict[str, Callable] = {
     "personalize": sigmaplot_regional.plot_personalize,
     "sensitivity": sigmaplot_studies.plot_sensitivity,
     "specificity": sigmaplot_studies.plot_specificity,
+    "therapy": sigmaplot_therapy.plot_therapy,
 }
 
 
