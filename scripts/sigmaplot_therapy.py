@@ -42,7 +42,7 @@ def _plot_map(f, out_dir, stem) -> List[str]:
              fmt="{:.1f}", marked=(best_seg,) if best_seg else ())
     width = upper - lower
     bullseye(axes[1], width, "AHR, width of the 90 % interval", "viridis", 0.0,
-             max(np.nanmax(width), 1e-9) if np.isfinite(width).any() else 1.0, "percentage points",
+             max(np.nanmax(width), 0.1) if np.isfinite(width).any() else 1.0, "percentage points",
              fmt="{:.1f}")
     bullseye(axes[2], p_best, "probability of the best site", "viridis", 0.0, 1.0, "P(best)", fmt="{:.2f}")
     fig.suptitle(title_of(f, "lead-site map") + f"   (best: {text(f['best'].attrs.get('label', 'none'))})")

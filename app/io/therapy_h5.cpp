@@ -41,6 +41,7 @@ Eigen::VectorXd factors(const std::vector<std::string>& names, const std::vector
 struct Table {
   Eigen::MatrixXd raw_mean, raw_std, raw_lower, raw_upper, change_mean, change_std, change_lower, change_upper;
   Eigen::VectorXd p_responder, av, vv;
+  Eigen::MatrixXd activation;  // therapies x 17 segment activation times at the base parameters [ms]
   std::vector<std::int64_t> segment;
   std::vector<std::string> label, mode, surface, status, failure, note, captured;
 };
@@ -51,6 +52,7 @@ Table table(const std::vector<th::TherapyOutcome>& group, const Eigen::VectorXd&
   const double nan = std::nan("");
   t.raw_mean = t.raw_std = t.raw_lower = t.raw_upper = Eigen::MatrixXd::Constant(n, fr.size(), nan);
   t.change_mean = t.change_std = t.change_lower = t.change_upper = Eigen::MatrixXd::Constant(n, fc.size(), nan);
+  t.activation.resize(n, model::activation::kSegments);
   t.p_responder.resize(n);
   t.av.resize(n);
   t.vv.resize(n);
@@ -68,6 +70,7 @@ Table table(const std::vector<th::TherapyOutcome>& group, const Eigen::VectorXd&
       t.change_lower.row(k) = o.change_moments.lower.cwiseProduct(fc).transpose();
       t.change_upper.row(k) = o.change_moments.upper.cwiseProduct(fc).transpose();
     }
+    for (int j = 0; j < model::activation::kSegments; ++j) t.activation(k, j) = 1e3 * o.segment_times[static_cast<size_t>(j)];
     t.p_responder(k) = o.p_responder;
     t.av(k) = 1e3 * o.therapy.timing.av_delay;
     t.vv(k) = 1e3 * o.therapy.timing.vv_delay;
@@ -105,6 +108,9 @@ void write_table(Hdf5Writer& h5, const std::string& g, const Table& t, const std
                                 {"change_lower", &t.change_lower}, {"change_upper", &t.change_upper}})
     h5.write_matrix(g + "/" + name, *m, change_u, t.label, change_names);
   h5.write_vector(g + "/p_responder", t.p_responder, "1");
+  h5.write_matrix(g + "/segment_activation", t.activation, "ms", t.label);
+  h5.set_attribute(g + "/segment_activation", "description",
+                   "mean activation time of each AHA segment under the therapy, at the base parameters, intrinsic clock");
 }
 
 Table site_table(const TherapyResults& r, const std::vector<th::TherapyOutcome>& group, const Eigen::VectorXd& fr,
@@ -164,6 +170,7 @@ void write_therapy_h5(const std::filesystem::path& path, const TherapyResults& r
   h5.write_vector("/baseline/raw_lower", b.raw_lower.row(0).transpose(), "see /responses/raw_units");
   h5.write_vector("/baseline/raw_upper", b.raw_upper.row(0).transpose(), "see /responses/raw_units");
   h5.set_attribute("/baseline", "status", s.baseline.ok() ? "ok" : "failed: " + s.baseline.failure);
+  h5.write_vector("/baseline/segment_activation", b.activation.row(0).transpose(), "ms");
 
   write_table(h5, "/map", site_table(r, s.map, fr, fc), s.names.raw, s.names.change);
   Eigen::MatrixXd ahr(static_cast<Eigen::Index>(s.map.size()), s.points.count());
@@ -228,6 +235,8 @@ void write_therapy_json(const std::filesystem::path& path, const std::string& na
   const Table b = table({s.baseline}, fr, fc);
   nlohmann::ordered_json baseline;
   for (size_t c = 0; c < s.names.raw.size(); ++c) baseline[s.names.raw[c]] = number(b.raw_mean(0, static_cast<Eigen::Index>(c)));
+  baseline["segment_activation_ms"] = nlohmann::ordered_json::array();
+  for (int j = 0; j < model::activation::kSegments; ++j) baseline["segment_activation_ms"].push_back(number(b.activation(0, j)));
   nlohmann::ordered_json j = {{"kind", "therapy"},
                               {"name", name},
                               {"status", r.status},

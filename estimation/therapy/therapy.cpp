@@ -157,17 +157,20 @@ Eigen::MatrixXd changes(const Eigen::MatrixXd& raw, const Eigen::MatrixXd& base,
 
 // Runs `therapies` at every point; fills their raw rows and statuses.
 std::vector<TherapyOutcome> evaluate(const model::Simulator& model, const std::vector<Therapy>& therapies,
-                                     const std::shared_ptr<const Eigen::MatrixXd>& thetas, const TherapyOptions& o,
-                                     const std::string& phase, TherapySummary& summary) {
+                                     const std::shared_ptr<const Eigen::MatrixXd>& thetas, const Eigen::VectorXd& base,
+                                     const TherapyOptions& o, const std::string& phase, TherapySummary& summary) {
   auto plans = std::make_shared<std::vector<act::PacingPlan>>();
   std::vector<TherapyOutcome> out(therapies.size());
   for (size_t k = 0; k < therapies.size(); ++k) {
     plans->push_back(pacing_plan(therapies[k], o));
     // The plan on this model now: a site outside the mesh or a point on the graph is bad input.
     const act::PacedSimulator probe(model, plans->back(), o.graph);
+    act::PacingOutcome at_base;
+    probe.paced_theta(base, &at_base);
     out[k].therapy = therapies[k];
-    out[k].captured = probe.outcome().captured;
-    out[k].note = probe.outcome().note;
+    out[k].captured = at_base.captured;
+    out[k].note = at_base.note;
+    out[k].segment_times = at_base.segment_times;
   }
   const int n = static_cast<int>(thetas->rows());
   const int members = static_cast<int>(therapies.size()) * n;
@@ -241,7 +244,7 @@ TherapySummary run_therapy_study(const model::Simulator& model, const Eigen::Vec
     for (int j = 0; j < s.sites; ++j)
       therapies.push_back({std::string(to_string(mode)) + " LV " + sites[static_cast<size_t>(j)].describe(), false, mode,
                            j, o.timing});
-  std::vector<TherapyOutcome> all = evaluate(model, therapies, thetas, opts, "baseline and lead-site map", s);
+  std::vector<TherapyOutcome> all = evaluate(model, therapies, thetas, base_theta, opts, "baseline and lead-site map", s);
   s.baseline = std::move(all.front());
   s.map.assign(std::make_move_iterator(all.begin() + 1), std::make_move_iterator(all.end()));
   const Eigen::MatrixXd base_raw = s.baseline.raw;
@@ -279,7 +282,7 @@ TherapySummary run_therapy_study(const model::Simulator& model, const Eigen::Vec
       t.vv_delay = vv;
       sweep.push_back({"VV " + std::to_string(std::lround(1e3 * vv)) + " ms" + where, false, Mode::kBiventricular, s.best, t});
     }
-    s.sweep = evaluate(model, sweep, thetas, opts, "AV/VV sweep", s);
+    s.sweep = evaluate(model, sweep, thetas, base_theta, opts, "AV/VV sweep", s);
     for (auto& t : s.sweep) summarise(t, s, base_raw, regional, opts);
   }
 

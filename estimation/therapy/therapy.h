@@ -28,6 +28,7 @@
 
 #include <Eigen/Core>
 
+#include <array>
 #include <functional>
 #include <optional>
 #include <string>
@@ -87,6 +88,8 @@ struct ResponseNames {
 struct TherapyOutcome {
   Therapy therapy;
   std::vector<bool> captured;  // per stimulus
+  // The activation under the therapy at the base parameters (segment means [s], intrinsic clock).
+  std::array<double, model::activation::kSegments> segment_times{};
   std::string note;            // e.g. "LV lead in scar segment 7: no capture"
   Eigen::MatrixXd raw;         // points x raw responses (NaN rows: failed points)
   std::vector<model::Status> status;  // per point
