@@ -3,6 +3,7 @@
 // not depend on which commands happen to be set up.
 #include "app/calibration_setup.h"
 #include "app/config.h"
+#include "app/observe_setup.h"
 #include "app/personalize_setup.h"
 #include "app/sensitivity_setup.h"
 #include "app/specificity_setup.h"
@@ -30,6 +31,7 @@ const ConfigSections& builtin_config_sections() {
       {"sensitivity", [](const Config& c) { parse_sensitivity(c); }},
       {"personalize", [](const Config& c) { parse_personalize(c); }},
       {"therapy", [](const Config& c) { parse_therapy(c); }},
+      {"observe", [](const Config& c) { parse_observe(c.file); }},
   });
   return sections;
 }

@@ -14,6 +14,7 @@ import os
 from typing import Callable, Dict, List
 
 import sigmaplot_calibrate
+import sigmaplot_observe
 import sigmaplot_regional
 import sigmaplot_simulate
 import sigmaplot_studies
@@ -27,6 +28,7 @@ PLOTTERS: Dict[str, Callable] = {
     "sensitivity": sigmaplot_studies.plot_sensitivity,
     "specificity": sigmaplot_studies.plot_specificity,
     "therapy": sigmaplot_therapy.plot_therapy,
+    "observe": sigmaplot_observe.plot_observe,
 }
 
 

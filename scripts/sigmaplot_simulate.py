@@ -76,14 +76,17 @@ def plot_simulate(f, out_dir: str, stem: str) -> List[str]:
 LEVELS = [("basal", range(1, 7)), ("mid-cavity", range(7, 13)), ("apical", range(13, 17)), ("apex", range(17, 18))]
 
 
-def regional_volumes(f, g, time, time_unit, phase, segments):
-    """One panel per AHA level with its segments' volume curves, then the regional-EF bull's-eye."""
+def regional_volumes(f, g, time, time_unit, phase, segments, regional_ef=None,
+                     ef_label="(max - min) / max of V_seg [%]", title="Regional cavity volumes over the periodic beat"):
+    """One panel per AHA level with its segments' volume curves, then the regional-EF bull's-eye
+    (`regional_ef` [%] per segment when given, else (max - min) / max of each curve)."""
     fig = plt.figure(figsize=(13, 6.5))
     grid = fig.add_gridspec(2, 3, width_ratios=[1, 1, 1.1])
     panels = [fig.add_subplot(grid[r, c]) for r, c in ((0, 0), (0, 1), (1, 0), (1, 1))]
     ax_eye = fig.add_subplot(grid[:, 2])
     colors = plt.get_cmap("tab10")
-    regional_ef = np.full(17, np.nan)
+    given = regional_ef is not None
+    regional_ef = np.array(regional_ef, dtype=float) if given else np.full(17, np.nan)
     unit = ""
     for ax, (level, members) in zip(panels, LEVELS):
         if phase is not None:
@@ -92,7 +95,7 @@ def regional_volumes(f, g, time, time_unit, phase, segments):
             v, unit = curve(g, f"V_seg{s:02d}")
             name = sigmaplot_regional.AHA_NAMES[s - 1] if len(segments) == 17 else f"segment {s}"
             ax.plot(time, v, color=colors(j), lw=1.6, label=f"{s}: {name}")
-            if np.max(v) > 0:
+            if not given and np.max(v) > 0:
                 regional_ef[s - 1] = 100.0 * (np.max(v) - np.min(v)) / np.max(v)
         ax.set_title(f"{level} segments", fontsize=9)
         ax.set_ylabel(f"volume [{unit}]", fontsize=8)
@@ -105,10 +108,10 @@ def regional_volumes(f, g, time, time_unit, phase, segments):
         finite = regional_ef[np.isfinite(regional_ef)]
         lo, hi = (float(np.min(finite)), float(np.max(finite))) if finite.size else (0.0, 1.0)
         sigmaplot_regional.bullseye(ax_eye, regional_ef, "regional ejection fraction", "viridis", lo,
-                                    max(hi, lo + 1e-9), "(max - min) / max of V_seg [%]")
+                                    max(hi, lo + 1e-9), ef_label)
     else:
         ax_eye.set_visible(False)
-    fig.suptitle(title_of(f, "Regional cavity volumes over the periodic beat"))
+    fig.suptitle(title_of(f, title))
     fig.text(0.99, 0.0, provenance_note(f), ha="right", va="bottom", fontsize=6, color="0.5")
     fig.tight_layout()
     return fig

@@ -57,6 +57,7 @@ void add_land_benchmark(CLI::App& benchmark, CommandContext& ctx);      // bench
 void add_arostica_benchmark(CLI::App& benchmark, CommandContext& ctx);  // benchmark_arostica.cpp
 void register_serve(CLI::App& app, CommandContext& ctx);      // UM-Bridge server (app/blackbox/)
 void register_therapy(CLI::App& app, CommandContext& ctx);    // pacing therapies (therapy.cpp)
+void register_observe(CLI::App& app, CommandContext& ctx);    // volume curves from images
 
 // Helpers shared by the commands ---------------------------------------------------------------
 

@@ -11,6 +11,7 @@
 #include "app/commands/commands.h"
 #include "app/config.h"
 #include "app/errors.h"
+#include "app/observe_setup.h"
 
 #include <algorithm>
 #include <functional>
@@ -66,6 +67,16 @@ int run_validate(const ConfigOptions& o, CommandContext& ctx) {
   ConfigFile file = ConfigFile::load(o.config);  // a syntax error ends here, alone
   apply_overrides(file, o.overrides);
   ErrorCollector errors(file);
+#ifdef SIGMAHEART_HAVE_FEM
+  if (file.root().has("observe") && !file.root().has("simulator")) {
+    // An observe config names files and landmarks, no simulator (app/observe_setup.h).
+    errors.run([&] { parse_observe(file); });
+    for (const auto& e : errors.errors()) ctx.err << "error: " << e.what() << "\n";
+    if (!errors.errors().empty()) return kExitBadInput;
+    ctx.out << file.file() << ": ok (observe: files and landmarks checked)\n";
+    return kExitOk;
+  }
+#endif
 
   std::optional<Config> config;
   const bool simulator_ok = errors.run([&] {

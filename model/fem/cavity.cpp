@@ -40,8 +40,7 @@ AhaLabels aha_labels(const Mesh& mesh, const AhaOptions& o) {
   if (auto m = o.validate(); !m.empty()) throw std::invalid_argument("AhaOptions: " + m);
   const auto ring = base_ring(mesh, o.endo_tag, o.base_tag);
   if (ring.empty()) throw std::invalid_argument("aha_labels: the mesh has no endocardial base ring");
-  AhaLabels L;
-  AhaFrame& f = L.frame;
+  AhaFrame f;
   f.centre.setZero();
   for (int n : ring) f.centre += mesh.nodes.row(n).transpose();
   f.centre /= static_cast<double>(ring.size());
@@ -65,40 +64,52 @@ AhaLabels aha_labels(const Mesh& mesh, const AhaOptions& o) {
     }
   }
   f.length = -hmin;
-  Eigen::Vector3d ref = o.reference_direction - o.reference_direction.dot(f.axis) * f.axis;
+  return aha_labels_in_frame(mesh, mesh.nodes, f, o.reference_direction, o, ring);
+}
+
+AhaLabels aha_labels_in_frame(const Mesh& mesh, const Eigen::MatrixX3d& x, const AhaFrame& f,
+                              const Eigen::Vector3d& reference_direction, const AhaOptions& o, std::vector<int> ring) {
+  if (auto m = o.validate(); !m.empty()) throw std::invalid_argument("AhaOptions: " + m);
+  if (x.rows() != mesh.n_nodes()) throw std::invalid_argument("aha_labels_in_frame: x needs one row per node");
+  AhaLabels L;
+  L.frame = f;
+  L.base_ring = std::move(ring);
+  Eigen::Vector3d ref = reference_direction - reference_direction.dot(f.axis) * f.axis;
   if (ref.norm() < 1e-12) throw std::invalid_argument("aha_labels: reference direction is parallel to the axis");
   ref.normalize();
   const Eigen::Vector3d ref2 = f.axis.cross(ref);
-  auto classify = [&](const Eigen::Vector3d& x) {
-    const double h = (x - f.apex).dot(f.axis) / f.length;
-    const Eigen::Vector3d d = x - f.centre;
-    const double phi = std::atan2(d.dot(ref2), d.dot(ref)) * 180.0 / std::numbers::pi;
+  // A centroid on a boundary (the apex fan's triangles bisect 30-deg cells at -75, 15, 105, 195
+  // deg) would be classified by round-off, differently for the same mesh in another frame (the
+  // simulator's, or landmarks read back by `observe`): h and phi are rounded to 1e-12 and 1e-9
+  // deg first, so such a face goes to the segment counter-clockwise of (or below) the boundary.
+  auto classify = [&](const Eigen::Vector3d& p) {
+    const double h = std::round((p - f.apex).dot(f.axis) / f.length * 1e12) / 1e12;
+    const Eigen::Vector3d d = p - f.centre;
+    const double phi = std::round(std::atan2(d.dot(ref2), d.dot(ref)) * 180.0 / std::numbers::pi * 1e9) / 1e9;
     return aha_segment(h, phi, 0.0);
+  };
+  auto centroid = [&](auto&& row, int n) {
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    for (int k = 0; k < n; ++k) c += x.row(row(k)).transpose();
+    return Eigen::Vector3d(c / static_cast<double>(n));
   };
   L.element_segment.resize(static_cast<size_t>(mesh.n_tets()));
   for (Eigen::Index e = 0; e < mesh.tets.rows(); ++e) {
-    Eigen::Vector3d c = Eigen::Vector3d::Zero();
-    for (int k = 0; k < 4; ++k) c += mesh.nodes.row(mesh.tets(e, k)).transpose();
-    L.element_segment[static_cast<size_t>(e)] = classify(c / 4.0);
+    const Eigen::Vector3d c = centroid([&](int k) { return mesh.tets(e, k); }, 4);
+    int s = classify(c);
+    // The cap rule applies to the wall too when a cap fraction is requested.
+    if (o.apical_cap_fraction > 0 && (c - f.apex).dot(f.axis) / f.length < o.apical_cap_fraction) s = 17;
+    L.element_segment[static_cast<size_t>(e)] = s;
   }
   L.face_segment.assign(static_cast<size_t>(mesh.faces.rows()), 0);
   for (Eigen::Index k = 0; k < mesh.faces.rows(); ++k) {
     if (mesh.face_tag[static_cast<size_t>(k)] != o.endo_tag) continue;
-    Eigen::Vector3d c = Eigen::Vector3d::Zero();
-    for (int j = 0; j < 3; ++j) c += mesh.nodes.row(mesh.faces(k, j)).transpose();
-    c /= 3.0;
+    const Eigen::Vector3d c = centroid([&](int j) { return mesh.faces(k, j); }, 3);
     const double h = (c - f.apex).dot(f.axis) / f.length;
     int s = classify(c);
     if (h < o.apical_cap_fraction) s = 17;
     L.face_segment[static_cast<size_t>(k)] = s;
   }
-  // The cap rule applies to the wall too when a cap fraction is requested.
-  if (o.apical_cap_fraction > 0)
-    for (Eigen::Index e = 0; e < mesh.tets.rows(); ++e) {
-      Eigen::Vector3d c = Eigen::Vector3d::Zero();
-      for (int k = 0; k < 4; ++k) c += mesh.nodes.row(mesh.tets(e, k)).transpose();
-      if ((c / 4.0 - f.apex).dot(f.axis) / f.length < o.apical_cap_fraction) L.element_segment[static_cast<size_t>(e)] = 17;
-    }
   return L;
 }
 
@@ -107,8 +118,7 @@ CavityVolumes cavity_volumes(const Mesh& mesh, const Eigen::MatrixX3d& x, const 
   if (labels.face_segment.size() != static_cast<size_t>(mesh.faces.rows()))
     throw std::invalid_argument("cavity_volumes: labels do not belong to this mesh");
   const Eigen::Vector3d a = labels.frame.axis;
-  // The base ring: nodes of endocardial faces that are base-ring nodes in the reference mesh.
-  std::vector<int> ring = base_ring(mesh);
+  const std::vector<int>& ring = labels.base_ring;
   if (ring.empty()) throw std::invalid_argument("cavity_volumes: no base ring");
   Eigen::Vector3d c = Eigen::Vector3d::Zero();
   for (int n : ring) c += x.row(n).transpose();

@@ -53,6 +53,7 @@ struct AhaLabels {
   AhaFrame frame;
   std::vector<int> element_segment;  // 1..17 per tetrahedron
   std::vector<int> face_segment;     // 1..17 per boundary face, 0 for non-endocardial faces
+  std::vector<int> base_ring;        // nodes of the endocardial base ring (c is their mean)
 };
 
 // Segment (1..17) of a point given by its height fraction h = (x - apex).axis / L and angle phi.
@@ -62,13 +63,23 @@ int aha_segment(double h, double phi_deg, double apical_cap_fraction);
 // the mesh has no endocardial or base faces.
 AhaLabels aha_labels(const Mesh& mesh, const AhaOptions& options = {});
 
+// Labels in a given frame (from landmarks, e.g. model/fem/tracked_volumes.h): every tetrahedron
+// and every face tagged options.endo_tag classified at positions x (n_nodes x 3, the reference
+// configuration), phi measured from `reference_direction` (projected normal to the axis), with
+// `ring` as the base ring. aha_labels() is this with the frame it finds. Throws
+// std::invalid_argument when the reference direction is parallel to the axis.
+AhaLabels aha_labels_in_frame(const Mesh& mesh, const Eigen::MatrixX3d& x, const AhaFrame& frame,
+                              const Eigen::Vector3d& reference_direction, const AhaOptions& options,
+                              std::vector<int> ring);
+
 struct CavityVolumes {
   double cavity = 0.0;                          // [m^3]
   std::array<double, kAhaSegments> regional{};  // [m^3], segment s at index s-1
   Eigen::VectorXd gradient;                     // dV/dx, 3 per node (only when requested)
 };
 
-// Volumes at current nodal positions x (n_nodes x 3), long axis `axis` (unit). With
+// Volumes at current nodal positions x (n_nodes x 3), long axis labels.frame.axis (unit), c the
+// mean of labels.base_ring at x. With
 // `with_gradient` the derivative of the cavity volume w.r.t. every nodal coordinate is returned.
 CavityVolumes cavity_volumes(const Mesh& mesh, const Eigen::MatrixX3d& x, const AhaLabels& labels,
                              bool with_gradient = false);

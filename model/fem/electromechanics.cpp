@@ -936,6 +936,13 @@ VtuDocument LeftVentricle3D::field_document(const model::State& state) {
   doc.add_cell_data("fibre_strain", eff);
   doc.add_cell_data("fibre", fibre, 3);
   doc.add_cell_labels("aha_segment", g.labels.element_segment);
+  // The boundary surfaces as point labels (1 on the surface's nodes): `sigmaheart observe` finds the
+  // endocardium of these files with endocardium: {point_label: endocardium} (docs/models.md s.5.1).
+  for (const auto& [name, tag] : {std::pair<const char*, int>{"endocardium", kEndocardium}, {"base", kBase}}) {
+    Eigen::VectorXd on = Eigen::VectorXd::Zero(g.mesh.n_nodes());
+    for (int n : g.mesh.nodes_with_tag(tag)) on(n) = 1.0;
+    doc.add_point_data(name, on);
+  }
   return doc;
 }
 
