@@ -84,6 +84,7 @@ int run_cli_on_rank(int argc, const char* const* argv, std::ostream& out, std::o
   register_personalize(app, ctx);
   register_benchmark(app, ctx);
   register_serve(app, ctx);
+  register_therapy(app, ctx);
 #ifdef SIGMAHEART_HAVE_FEM
   register_observe(app, ctx);
 #endif

@@ -7,6 +7,7 @@
 #include "app/personalize_setup.h"
 #include "app/sensitivity_setup.h"
 #include "app/specificity_setup.h"
+#include "app/therapy_setup.h"
 
 namespace sigmaheart::app {
 
@@ -29,6 +30,7 @@ const ConfigSections& builtin_config_sections() {
       {"specificity", [](const Config& c) { parse_specificity_section(c); }},
       {"sensitivity", [](const Config& c) { parse_sensitivity(c); }},
       {"personalize", [](const Config& c) { parse_personalize(c); }},
+      {"therapy", [](const Config& c) { parse_therapy(c); }},
       {"observe", [](const Config& c) { parse_observe(c.file); }},
   });
   return sections;

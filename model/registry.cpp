@@ -33,6 +33,28 @@ std::vector<double> NoOptions::quantities(const std::string& key, const std::str
   fail(key, "missing required key '" + key + "'");
 }
 
+void read_activation_input(const OptionReader& node, bcs::ActivationInput& input) {
+  if (!node.has("activation_shape")) return;
+  const std::vector<std::string> shapes = {"square", "ramped"};
+  const auto a = node.child("activation_shape");
+  const std::string shape = a->is_map() ? a->choice("shape", shapes) : node.choice("activation_shape", shapes);
+  input.shape = shape == "square" ? bcs::ActivationShape::kSquare : bcs::ActivationShape::kRamped;
+  if (a->is_map()) {
+    a->check_keys({"shape", "rise", "fall", "relax_ramp", "relax_hold", "rest_ramp", "rest"});
+    bcs::RampedActivation& r = input.ramp;
+    r.rise = a->number("rise", r.rise);
+    r.fall = a->number("fall", r.fall);
+    r.relax_ramp = a->quantity("relax_ramp", "s", r.relax_ramp);
+    r.relax_hold = a->quantity("relax_hold", "s", r.relax_hold);
+    r.rest_ramp = a->quantity("rest_ramp", "s", r.rest_ramp);
+    r.rest = a->number("rest", r.rest);
+    if (const std::string msg = input.validate(); !msg.empty()) {
+      const std::string key = msg.substr(0, msg.find_first_of(" ="));
+      a->fail(key == "rise + fall" ? "fall" : key, node.path() + ".activation_shape: " + msg);
+    }
+  }
+}
+
 std::unique_ptr<OptionReader> NoOptions::child(const std::string&) const {
   return std::make_unique<NoOptions>();
 }

@@ -40,6 +40,7 @@
 // 1..N (AHA segment or patch), a global one segment 0.
 #pragma once
 
+#include "model/bcs/active_law.h"
 #include "model/simulator.h"
 
 #include <functional>
@@ -115,6 +116,12 @@ void read_beat_numerics(const OptionReader& node, Options& o) {
   o.newton_tolerance = node.number("newton_tolerance", o.newton_tolerance);
   o.newton_max_iterations = node.integer("newton_max_iterations", o.newton_max_iterations);
 }
+
+// The key `activation_shape` of a BCS model's numerics (docs/models.md s.1, "Activation input"):
+// `square` (the default) or `ramped`, or a map {shape: ramped, rise, fall, relax_ramp, relax_hold,
+// rest_ramp, rest} whose keys left out keep Caruel et al. 2014's values (bcs::RampedActivation).
+// Errors are reported at the key through the reader.
+void read_activation_input(const OptionReader& node, bcs::ActivationInput& input);
 
 // An absent section: every value is its fallback, fail() throws std::invalid_argument. What a
 // model is built with when nothing is configured (tests, `builtin_models()` defaults).

@@ -148,10 +148,15 @@ struct RunResult {
 // has no such capability. Commands and estimators ask, never cast to a concrete model:
 //   steppable()  the state can be stopped, saved, edited and resumed (the ROUKF needs it);
 //   fields()     the state has spatial fields (`simulate --vtu` writes them for any model);
+//   pacing()     the activation sequence can be set from pacing leads (model/activation/pacing.h;
+//                models without it may still be paced through their per-segment activation times);
 //   regional channels are tagged (Channel::family "regional_volume", segment 1..N).
 struct State;
 class SteppableSimulator;
 class FieldOutput;
+namespace activation {
+class Pacing;
+}
 
 class Simulator {
  public:
@@ -184,6 +189,7 @@ class Simulator {
   // Capability queries (above); the interfaces live as long as this simulator.
   virtual SteppableSimulator* steppable() { return nullptr; }
   virtual FieldOutput* fields() { return nullptr; }
+  virtual activation::Pacing* pacing() { return nullptr; }
 };
 
 // A simulator whose state can be stopped, saved, edited and resumed: what the ROUKF needs.

@@ -18,6 +18,7 @@ import sigmaplot_observe
 import sigmaplot_regional
 import sigmaplot_simulate
 import sigmaplot_studies
+import sigmaplot_therapy
 from sigmaplot_common import text
 
 PLOTTERS: Dict[str, Callable] = {
@@ -26,6 +27,7 @@ PLOTTERS: Dict[str, Callable] = {
     "personalize": sigmaplot_regional.plot_personalize,
     "sensitivity": sigmaplot_studies.plot_sensitivity,
     "specificity": sigmaplot_studies.plot_specificity,
+    "therapy": sigmaplot_therapy.plot_therapy,
     "observe": sigmaplot_observe.plot_observe,
 }
 

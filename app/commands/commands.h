@@ -56,6 +56,7 @@ void register_benchmark(CLI::App& app, CommandContext& ctx);  // 3D mechanics be
 void add_land_benchmark(CLI::App& benchmark, CommandContext& ctx);      // benchmark_land.cpp
 void add_arostica_benchmark(CLI::App& benchmark, CommandContext& ctx);  // benchmark_arostica.cpp
 void register_serve(CLI::App& app, CommandContext& ctx);      // UM-Bridge server (app/blackbox/)
+void register_therapy(CLI::App& app, CommandContext& ctx);    // pacing therapies (therapy.cpp)
 void register_observe(CLI::App& app, CommandContext& ctx);    // volume curves from images
 
 // Helpers shared by the commands ---------------------------------------------------------------
@@ -188,5 +189,9 @@ struct SimulateOptions {
   std::vector<std::string> overrides;            // "key=value"
 };
 int run_simulate(const SimulateOptions& options, CommandContext& ctx);
+
+// `sigmaheart therapy`: the therapies of the config's therapy: section (app/therapy_setup.h), in
+// process (the Python API calls it as the command line does).
+int run_therapy(const StudyOptions& options, CommandContext& ctx);
 
 }  // namespace sigmaheart::app

@@ -36,6 +36,42 @@
 
 namespace sigmaheart::model::bcs {
 
+// The shape of the activation input u(t) in the time since depolarisation s = (t - T_d) mod period
+// (docs/models.md s.1, "Activation input").
+enum class ActivationShape {
+  // Two levels (the default): u = +k_ATP for s < APD, -k_RS otherwise (Bestel et al. 2001).
+  kSquare,
+  // Piecewise linear, after the u(t) of Caruel et al. 2014 (Biomech Model Mechanobiol 13:897, s.2.1,
+  // the "reaction rate" input of the sarcomere model; its values as tabulated for an 0.8 s cycle in
+  // svZeroDSolver's test case chamber_sphere_straindependent_Caruel.json: u = -3.2, 35, 35, 0, -12,
+  // -12, -3.2 1/s at t = 0.10, 0.27, 0.32, 0.34, 0.46, 0.59, 0.60 s). In our parameters (k_ATP = 35,
+  // k_RS = 12, APD = 0.24 s reproduce that table exactly) the knots are, in s:
+  //   0: -rest k_RS -> rise APD: k_ATP -> (1 - fall) APD: k_ATP -> APD: 0
+  //   -> APD + relax_ramp: -k_RS -> + relax_hold: -k_RS -> + rest_ramp: -rest k_RS, held to the period.
+  // Knots past the period are cut there (the next depolarisation starts the profile again). The
+  // contraction rate builds up over most of the action potential instead of jumping to k_ATP, so
+  // the isovolumic contraction lasts longer and dP/dt max is lower (docs/models.md s.1).
+  kRamped,
+};
+const char* to_string(ActivationShape shape);
+
+// The knots of ActivationShape::kRamped; defaults from Caruel et al. 2014 as above.
+struct RampedActivation {
+  double rise = 0.17 / 0.24;   // fraction of APD over which u climbs to k_ATP [-]
+  double fall = 0.02 / 0.24;   // fraction of APD over which u falls from k_ATP to 0 [-]
+  double relax_ramp = 0.12;    // [s] from 0 (at APD) to -k_RS
+  double relax_hold = 0.13;    // [s] at -k_RS
+  double rest_ramp = 0.01;     // [s] from -k_RS to the diastolic rate
+  double rest = 3.2 / 12.0;    // diastolic rate as a fraction of k_RS [-]
+};
+
+struct ActivationInput {
+  ActivationShape shape = ActivationShape::kSquare;
+  RampedActivation ramp;  // used by kRamped
+  // Empty when valid, else a message naming the field.
+  std::string validate() const;
+};
+
 // Parameters of the active law, SI. Defaults: the CCMLC2014-like working set of docs/models.md s.2
 // (after Caruel et al. 2014 Table 1 / Chapelle et al. 2012), to be tuned per model.
 struct ActiveParameters {
@@ -49,6 +85,7 @@ struct ActiveParameters {
   double APD = 0.3;       // action-potential duration [s]
   double n0_slope = 0.0;  // length-dependence gain dn0/de_c on the ramp [-]; 0: n0 = 1
   double n0_e_max = 0.0;  // contractile strain where n0 reaches 1 [-]
+  ActivationInput input;  // shape of u(t); a numerics choice of the model, not a parameter
   // Empty when valid, else a message naming the first bad field.
   std::string validate() const;
 };
@@ -61,7 +98,7 @@ struct ActiveState {
 };
 
 // Step averages of the activation input u over [t0, t1] (docs/models.md s.1: u = +k_ATP while
-// T_d <= t mod period < T_d + APD, -k_RS otherwise).
+// T_d <= t mod period < T_d + APD, -k_RS otherwise; or the ramped profile of ActivationShape).
 struct StepActivation {
   double u_abs = 0.0;   // mean of |u| over the step [1/s]
   double u_plus = 0.0;  // mean of max(u, 0) over the step [1/s]
@@ -71,8 +108,12 @@ struct StepActivation {
 // for every integer m. Works for any T_d (also T_d + APD > period) and any step position.
 double active_fraction(double t0, double t1, double T_d, double APD, double period);
 
-// u at the instant t (k_ATP inside the window, -k_RS outside).
+// u at the instant t (square: k_ATP inside the window, -k_RS outside; ramped: the profile).
 double activation(double t, double T_d, double period, const ActiveParameters& p);
+
+// The exact step averages of any shape: for kSquare from active_fraction, for kRamped the integrals
+// of |u| and max(u, 0) of the piecewise-linear profile over [t0, t1] (split at its knots and at its
+// zeros), so a knot inside a step is not rounded to the grid either.
 
 StepActivation step_activation(double t0, double t1, double T_d, double period,
                                const ActiveParameters& p);

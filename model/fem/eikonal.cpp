@@ -343,6 +343,33 @@ ActivationPattern parse_activation_pattern(const std::string& name) {
 
 std::string to_string(ActivationPattern p) { return p == ActivationPattern::kHealthy ? "healthy" : "lbbb"; }
 
+Eigen::Vector3d surface_site(const Mesh& mesh, const AhaFrame& f, const Eigen::Vector3d& reference_direction, int tag,
+                             double h, double phi_deg) {
+  const auto nodes = mesh.nodes_with_tag(tag);
+  if (nodes.empty()) throw std::invalid_argument("surface_site: the mesh has no faces tagged " + std::to_string(tag));
+  Eigen::Vector3d ref = reference_direction - reference_direction.dot(f.axis) * f.axis;
+  ref.normalize();
+  const Eigen::Vector3d ref2 = f.axis.cross(ref);
+  const double phi = phi_deg * std::numbers::pi / 180.0;
+  double best = kInf;
+  Eigen::Vector3d x = Eigen::Vector3d::Zero();
+  for (int n : nodes) {
+    if (n >= mesh.n_vertices) continue;
+    const Eigen::Vector3d p = mesh.nodes.row(n).transpose();
+    const double hv = (p - f.apex).dot(f.axis) / f.length;
+    const Eigen::Vector3d d = p - f.centre;
+    const double radius = (d - d.dot(f.axis) * f.axis).norm();
+    double dphi = std::atan2(d.dot(ref2), d.dot(ref)) - phi;
+    dphi = std::remainder(dphi, 2.0 * std::numbers::pi);
+    const double dist = std::hypot((hv - h) * f.length, dphi * radius);
+    if (dist < best) {
+      best = dist;
+      x = p;
+    }
+  }
+  return x;
+}
+
 std::string ActivationPatternOptions::validate() const {
   for (double v : {myocardium.fibre, myocardium.sheet, myocardium.normal, fast_endocardial_speed})
     if (!(v > 0.0) || !std::isfinite(v)) return "conduction velocity " + std::to_string(v) + " m/s is not positive";
@@ -362,32 +389,8 @@ EikonalOptions activation_pattern(const Mesh& mesh, const std::vector<Frame>& te
   AhaOptions ao;
   ao.reference_direction = o.reference_direction;
   const AhaFrame f = aha_labels(mesh, ao).frame;
-  Eigen::Vector3d ref = o.reference_direction - o.reference_direction.dot(f.axis) * f.axis;
-  ref.normalize();
-  const Eigen::Vector3d ref2 = f.axis.cross(ref);
-  // The vertex of surface `tag` nearest to the surface point at height fraction h and angle phi:
-  // distance measured along the axis and along the arc at the vertex's own radius.
   auto site_on = [&](int tag, double h, double phi_deg) {
-    const auto nodes = mesh.nodes_with_tag(tag);
-    if (nodes.empty()) throw std::invalid_argument("activation_pattern: the mesh has no faces tagged " + std::to_string(tag));
-    const double phi = phi_deg * std::numbers::pi / 180.0;
-    double best = kInf;
-    Eigen::Vector3d x = Eigen::Vector3d::Zero();
-    for (int n : nodes) {
-      if (n >= mesh.n_vertices) continue;
-      const Eigen::Vector3d p = mesh.nodes.row(n).transpose();
-      const double hv = (p - f.apex).dot(f.axis) / f.length;
-      const Eigen::Vector3d d = p - f.centre;
-      const double radius = (d - d.dot(f.axis) * f.axis).norm();
-      double dphi = std::atan2(d.dot(ref2), d.dot(ref)) - phi;
-      dphi = std::remainder(dphi, 2.0 * std::numbers::pi);
-      const double dist = std::hypot((hv - h) * f.length, dphi * radius);
-      if (dist < best) {
-        best = dist;
-        x = p;
-      }
-    }
-    return x;
+    return surface_site(mesh, f, o.reference_direction, tag, h, phi_deg);
   };
   EikonalOptions e;
   e.frames = tet_frames;

@@ -22,6 +22,7 @@
 // al. 2011. Serial and deterministic: the same mesh and options give the same bits.
 #pragma once
 
+#include "model/fem/cavity.h"
 #include "model/fem/material.h"
 #include "model/fem/mesh.h"
 
@@ -122,6 +123,13 @@ Eigen::VectorXd surface_depth(const Mesh& mesh, int tag);
 // network, of a thickness that does not depend on the mesh once the mesh resolves it.
 std::vector<ConductionVelocities> layered_velocities(const Mesh& mesh, const ConductionVelocities& bulk,
                                                      double fast_speed, double depth, int tag = kEndocardium);
+
+// The vertex of the faces tagged `tag` nearest to the surface point at AHA coordinates (h, phi)
+// (cavity.h: h the height fraction from the endocardial apex along the long axis of `frame`, phi
+// [deg] about it from reference_direction): distance measured along the axis and along the arc at
+// the vertex's own radius. Throws std::invalid_argument when no face carries the tag.
+Eigen::Vector3d surface_site(const Mesh& mesh, const AhaFrame& frame, const Eigen::Vector3d& reference_direction,
+                             int tag, double h, double phi_deg);
 
 enum class ActivationPattern {
   kHealthy,  // LV endocardial onset at Durrer's three sites, fast endocardial layer

@@ -1,4 +1,5 @@
 #include "model/fem/electromechanics.h"
+#include "model/fem/pacing.h"
 
 #include "model/fem/coarse_space.h"
 #include "model/fem/element.h"
@@ -80,6 +81,8 @@ std::string LeftVentricle3DOptions::validate() const {
     return "n_circumferential must be a multiple of 6 in 12..120 (AHA 60-degree sectors)";
   if (const std::string g = geometry.validate(); !g.empty()) return "geometry: " + g;
   if (element_order != 1 && element_order != 2) return "element_order must be 1 (linear) or 2 (quadratic)";
+  if (const std::string a = activation_input.validate(); !a.empty()) return "activation_shape: " + a;
+  if (!(conduction_scale > 0.1 && conduction_scale <= 10.0)) return "conduction_scale must lie in (0.1, 10]";
   if (!(bulk_modulus >= 0) || std::isinf(bulk_modulus)) return "bulk_modulus must be finite and >= 0 [Pa]";
   if (element_order == 1 && !(bulk_modulus > 0))
     return "bulk_modulus must be > 0 with element_order 1 (P1-P1 is not inf-sup stable at exact incompressibility)";
@@ -137,6 +140,7 @@ struct Geometry {
   std::vector<double> qp_np;      // P1 shape values at the rule's points, 4 per point
   int nqp = 0;                    // per element
   std::vector<double> td;         // activation time per quadrature point [s]
+  std::vector<double> intrinsic_vt;  // the intrinsic activation time per vertex [s] (pace() starts from it)
   double force_ref = 1.0;         // [N] kPref times the mean endocardial nodal area
   double volume_ref = 1.0;        // [m^3] mean reference volume per vertex
 };
@@ -157,6 +161,15 @@ std::vector<double> interpolate_vertex_times(const Geometry& g, const std::vecto
       out[static_cast<size_t>(e * g.nqp + q)] = t;
     }
   return out;
+}
+
+// The eikonal patterns' velocities scaled by LeftVentricle3DOptions::conduction_scale.
+ActivationPatternOptions pattern_options(const LeftVentricle3DOptions& o) {
+  ActivationPatternOptions p;
+  p.myocardium = {p.myocardium.fibre * o.conduction_scale, p.myocardium.sheet * o.conduction_scale,
+                  p.myocardium.normal * o.conduction_scale};
+  p.fast_endocardial_speed *= o.conduction_scale;
+  return p;
 }
 
 std::shared_ptr<Geometry> build_geometry(const LeftVentricle3DOptions& o) {
@@ -206,10 +219,12 @@ std::shared_ptr<Geometry> build_geometry(const LeftVentricle3DOptions& o) {
     const EikonalResult r = solve_eikonal(
         g->mesh, activation_pattern(g->mesh, tet_frames,
                                     o.activation == ActivationSource::kHealthy ? ActivationPattern::kHealthy
-                                                                               : ActivationPattern::kLbbb));
+                                                                               : ActivationPattern::kLbbb,
+                                    pattern_options(o)));
     for (int v = 0; v < g->mesh.n_vertices; ++v) vt[static_cast<size_t>(v)] = r.times(v) - r.earliest;
   }
   g->td = interpolate_vertex_times(*g, vt);
+  g->intrinsic_vt = vt;
   return g;
 }
 
@@ -243,8 +258,9 @@ struct Model {
   circ::AtrialPressure atrial;
 };
 
-Model unpack(const Eigen::Ref<const Eigen::VectorXd>& th, const Index& i) {
+Model unpack(const Eigen::Ref<const Eigen::VectorXd>& th, const Index& i, const bcs::ActivationInput& input) {
   Model m;
+  m.act.input = input;  // the shape of u(t), LeftVentricle3DOptions::activation_input
   m.passive = {th(i.c1), th(i.c2), th(i.c_exp), th(i.b_exp)};
   m.eta = th(i.eta);
   m.period = th(i.period);
@@ -787,7 +803,7 @@ LeftVentricle3D::LeftVentricle3D(LeftVentricle3DOptions options, ParameterSpace 
   impl_->geo = build_geometry(options_);
   impl_->index = make_index(parameters_);
   // Builds the mechanics once: a mesh with an inverted element is refused here, not in run().
-  impl_->mechanics(unpack(parameters_.nominal(), impl_->index).passive);
+  impl_->mechanics(unpack(parameters_.nominal(), impl_->index, options_.activation_input).passive);
 }
 
 LeftVentricle3D::LeftVentricle3D(LeftVentricle3DOptions options)
@@ -822,9 +838,38 @@ void LeftVentricle3D::set_activation_times(const std::vector<double>& vertex_tim
     if (!std::isfinite(t) || t < 0) throw std::invalid_argument("set_activation_times: times must be finite and >= 0 s");
   auto geo = std::make_shared<Geometry>(g);
   geo->td = interpolate_vertex_times(*geo, vertex_times);
+  geo->intrinsic_vt = vertex_times;
   impl_->geo = std::move(geo);
   options_.activation = ActivationSource::kPrescribed;
   impl_->options.activation = ActivationSource::kPrescribed;
+}
+
+activation::PacingOutcome LeftVentricle3D::pace(const activation::PacingPlan& plan) {
+  const Geometry& g = *impl_->geo;
+  // The intrinsic onsets: the eikonal pattern itself (so that scar changes its course too), or one
+  // onset per vertex at the intrinsic times (synchronous, apex distance, prescribed times) with the
+  // myocardial velocities of the patterns for the paced wave.
+  FibreOptions fo;
+  fo.alpha_endo_deg = options_.fibre_endo_deg;
+  fo.alpha_epi_deg = options_.fibre_epi_deg;
+  const auto tet_frames = ellipsoid_fibres(g.mesh, options_.geometry, fo, 1);
+  EikonalOptions intrinsic;
+  if (options_.activation == ActivationSource::kHealthy || options_.activation == ActivationSource::kLbbb) {
+    intrinsic = activation_pattern(g.mesh, tet_frames,
+                                   options_.activation == ActivationSource::kHealthy ? ActivationPattern::kHealthy
+                                                                                     : ActivationPattern::kLbbb,
+                                   pattern_options(options_));
+  } else {
+    intrinsic.frames = tet_frames;
+    intrinsic.velocities = {pattern_options(options_).myocardium};
+    for (int v = 0; v < g.mesh.n_vertices; ++v) intrinsic.vertex_onsets.push_back({v, g.intrinsic_vt[static_cast<size_t>(v)]});
+  }
+  const PacedActivation paced = paced_activation(g.mesh, g.labels, intrinsic, plan);
+  std::vector<double> vt(paced.vertex_times.data(), paced.vertex_times.data() + paced.vertex_times.size());
+  auto geo = std::make_shared<Geometry>(g);
+  geo->td = interpolate_vertex_times(*geo, vt);  // on the intrinsic clock: may be negative (check_theta)
+  impl_->geo = std::move(geo);
+  return paced.outcome;
 }
 
 Status LeftVentricle3D::check_theta(const Eigen::Ref<const Eigen::VectorXd>& theta) const {
@@ -834,17 +879,20 @@ Status LeftVentricle3D::check_theta(const Eigen::Ref<const Eigen::VectorXd>& the
     return Status::Error(StatusCode::kInvalidArgument, s.str());
   }
   if (const std::string msg = parameters_.check(theta); !msg.empty()) return Status::Error(StatusCode::kOutOfBounds, msg);
-  const Model m = unpack(theta, impl_->index);
+  const Model m = unpack(theta, impl_->index, options_.activation_input);
   if (m.act.APD >= m.period) return Status::Error(StatusCode::kOutOfBounds, "APD must be shorter than the period");
   if (options_.dt > m.period / 20) {
     std::ostringstream s;
     s << "dt = " << options_.dt << " s must be <= period / 20 = " << m.period / 20 << " s";
     return Status::Error(StatusCode::kInvalidArgument, s.str());
   }
-  const double td_max = *std::max_element(impl_->geo->td.begin(), impl_->geo->td.end());
-  if (td_max >= m.period) {
+  const auto [td_min, td_max] = std::minmax_element(impl_->geo->td.begin(), impl_->geo->td.end());
+  // Paced activation (pace()) may start before the intrinsic onset: times down to -period are the
+  // same periodic windows (bcs::step_activation works for any T_d).
+  if (*td_max >= m.period || *td_min <= -m.period) {
     std::ostringstream s;
-    s << "the latest activation time " << td_max << " s is not inside the period " << m.period << " s";
+    s << "the activation times " << *td_min << " .. " << *td_max << " s are not inside one period (" << m.period
+      << " s) of the onset";
     return Status::Error(StatusCode::kInvalidArgument, s.str());
   }
   return Status::Ok();
@@ -905,7 +953,7 @@ model::State LeftVentricle3D::initial_state(const Eigen::Ref<const Eigen::Vector
     st.x = Eigen::VectorXd::Constant(impl_->state_size(), std::numeric_limits<double>::quiet_NaN());
     return st;
   }
-  const Model m = unpack(theta, impl_->index);
+  const Model m = unpack(theta, impl_->index, options_.activation_input);
   Mechanics& mech = impl_->mechanics(m.passive);
   Unknowns k;
   k.ms = mech.initial_state();
@@ -929,7 +977,7 @@ model::State LeftVentricle3D::initial_state(const Eigen::Ref<const Eigen::Vector
 
 Status LeftVentricle3D::step_to(model::State& state, const Eigen::Ref<const Eigen::VectorXd>& theta, double t_end,
                                 int* newton_iterations, int* step_cuts) {
-  const Model m = unpack(theta, impl_->index);
+  const Model m = unpack(theta, impl_->index, options_.activation_input);
   Unknowns x = impl_->unpack_state(state.x);
   double t = state.time;
   while (t < t_end) {
@@ -1008,7 +1056,7 @@ Status LeftVentricle3D::advance_checked(model::State& state, const Eigen::Ref<co
 }
 
 Eigen::VectorXd LeftVentricle3D::sample(const model::State& state, const Eigen::Ref<const Eigen::VectorXd>& theta) const {
-  const Model m = unpack(theta, impl_->index);
+  const Model m = unpack(theta, impl_->index, options_.activation_input);
   const Geometry& g = *impl_->geo;
   const Eigen::Index nu_ = impl_->nu(), np_ = impl_->np();
   const Eigen::VectorXd u = state.x.head(nu_);
@@ -1053,7 +1101,7 @@ RunResult LeftVentricle3D::run_checked(const Eigen::Ref<const Eigen::VectorXd>& 
     result.status = s;
     return result;
   }
-  const Model m = unpack(theta, impl_->index);
+  const Model m = unpack(theta, impl_->index, options_.activation_input);
   const double T = m.period;
   result.info.period = T;
   model::State s = initial_state(theta);

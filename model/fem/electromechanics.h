@@ -20,6 +20,7 @@
 // solver keeps the mechanics pattern.
 #pragma once
 
+#include "model/activation/pacing.h"
 #include "model/bcs/active_law.h"
 #include "model/circulation/circulation.h"
 #include "model/fem/cavity.h"
@@ -142,6 +143,13 @@ struct LeftVentricle3DOptions {
 
   ActivationSource activation = ActivationSource::kSynchronous;
   double conduction_velocity = 0.6;  // [m/s] for kApexDistance
+  // Multiplies every conduction velocity of the eikonal patterns (healthy, lbbb) and of paced
+  // activation (pace()): 0.8 lengthens the LBBB activation by a quarter (a slower-conducting,
+  // fibrotic myocardium). (0.1, 10].
+  double conduction_scale = 1.0;
+  // Shape of the BCS activation input u(t) at every point (`activation_shape:`; docs/models.md s.1):
+  // the square wave by default, or the ramped u(t) of Caruel et al. 2014.
+  bcs::ActivationInput activation_input;
   // SparseLU by default: the same bits in every thread (electromechanics.cpp, step); UMFPACK
   // (kAuto, kUmfPack) rounds with the alignment of its workspace.
   LinearSolver linear_solver = LinearSolver::kSparseLU;
@@ -181,7 +189,7 @@ struct LeftVentricle3DOptions {
 // vertex), P_v, P_ar, P_d, then e_c, k_c, tau_c per quadrature point, then last_open_valve.
 // t = 0 of every beat is the earliest depolarisation; run() starts from the unloaded mesh,
 // inflates it to the atrial pressure of t = 0 and repeats beats until the beat-start state repeats.
-class LeftVentricle3D final : public SteppableSimulator, public FieldOutput {
+class LeftVentricle3D final : public SteppableSimulator, public FieldOutput, public activation::Pacing {
  public:
   // Throws std::invalid_argument for invalid options or parameter names (message says which).
   LeftVentricle3D(LeftVentricle3DOptions options, ParameterSpace parameters);
@@ -210,6 +218,14 @@ class LeftVentricle3D final : public SteppableSimulator, public FieldOutput {
   void set_activation_times(const std::vector<double>& vertex_times);
   // Activation time of every quadrature point (element-major) [s].
   const std::vector<double>& activation_times() const;
+
+  // Pacing (model/activation/pacing.h; docs/models.md s.4.10): the activation of the runs that
+  // follow from an eikonal solve with the intrinsic onsets of the configured activation (its
+  // pattern, or its vertex times) and the plan's leads, scar blocking (fem/pacing.h). Times stay on
+  // the intrinsic clock (a lead firing before the intrinsic onset gives negative times, allowed
+  // down to -period). Each call starts again from the intrinsic activation.
+  activation::Pacing* pacing() override { return this; }
+  activation::PacingOutcome pace(const activation::PacingPlan& plan) override;
 
   // Fields (model/simulator.h, FieldOutput): `sigmaheart simulate --vtu` keeps the states of the
   // last beat through observe_steps() and writes each with write_fields() (field_document below).

@@ -26,7 +26,7 @@ LeftVentricle3DOptions read_lv3d_options(const OptionReader& node) {
                    "newton_tolerance", "newton_max_iterations", "activation", "conduction_velocity",
                    "linear_solver", "linear_tolerance", "geometry", "active_stress", "element_order",
                    "bulk_modulus", "pressure_stabilization", "grad_div", "coarse_correction",
-                   "exact_displacement_solve"});
+                   "exact_displacement_solve", "activation_shape", "conduction_scale"});
   if (node.has("geometry")) {
     // The truncated ellipsoid's radii and base plane (EllipsoidGeometry, docs/models.md s.4.1);
     // keys left out keep the human-sized values.
@@ -75,6 +75,8 @@ LeftVentricle3DOptions read_lv3d_options(const OptionReader& node) {
                                           : ActivationSource::kLbbb;
   }
   o.conduction_velocity = node.quantity("conduction_velocity", "m/s", o.conduction_velocity);
+  read_activation_input(node, o.activation_input);
+  o.conduction_scale = node.number("conduction_scale", o.conduction_scale);
   if (node.has("linear_solver")) {
     o.linear_solver = parse_linear_solver(node.choice("linear_solver", {"auto", "umfpack", "sparselu", "amg"}));
     if (!linear_solver_available(o.linear_solver))
@@ -98,6 +100,7 @@ LeftVentricle3DOptions read_lv3d_options(const OptionReader& node) {
     if (field.rfind("n_", 0) == 0) field = "mesh";
     if (field == "fibre") field = "fibre_endo";
     if (field == "geometry:") field = "geometry";
+    if (field == "activation_shape:") field = "activation_shape";
     node.fail(field, node.path() + ": " + msg);
   }
   return o;

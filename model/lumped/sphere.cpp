@@ -63,9 +63,10 @@ using shell::cavity_volume, shell::passive_stress;
 // The shell with its one contractility; index = shell::global_indices() then sigma0.
 using Model = shell::Shell;
 Model unpack(const Eigen::Ref<const Eigen::VectorXd>& theta, const std::vector<int>& idx,
-             const std::vector<int>& atrium) {
+             const std::vector<int>& atrium, const bcs::ActivationInput& input) {
   Model m = shell::unpack(theta, idx, atrium.empty() ? nullptr : &atrium, kVat);
   m.act.sigma0 = theta(idx.back());
+  m.act.input = input;  // the shape of u(t): a numerics choice (SphereOptions::activation_input)
   return m;
 }
 
@@ -238,6 +239,7 @@ std::string SphereOptions::validate() const {
   else if (!(newton_tolerance > 0.0 && newton_tolerance < 1e-2))
     s << "newton_tolerance = " << newton_tolerance << " must lie in (0, 1e-2)";
   else if (newton_max_iterations < 1) s << "newton_max_iterations must be >= 1";
+  else if (const std::string m = activation_input.validate(); !m.empty()) s << "activation_shape: " << m;
   return s.str();
 }
 
@@ -403,7 +405,7 @@ std::unique_ptr<Simulator> LumpedSphere::clone() const {
 
 Status LumpedSphere::check_theta(const Eigen::Ref<const Eigen::VectorXd>& theta) const {
   if (theta.size() != parameters_.size()) return shell::check_theta(parameters_, options_, theta, 0, 1);
-  const Model m = unpack(theta, index_, atrium_index_);
+  const Model m = unpack(theta, index_, atrium_index_, options_.activation_input);
   return shell::check_theta(parameters_, options_, theta, m.act.APD, m.period);
 }
 
@@ -417,14 +419,14 @@ State LumpedSphere::initial_state(const Eigen::Ref<const Eigen::VectorXd>& theta
   }
   // Relaxed (shell::fill_relaxed_state), the contractile element at rest (e_c = e, no active
   // stress).
-  s.x(kEc) = shell::fill_relaxed_state(unpack(theta, index_, atrium_index_), s.x);
+  s.x(kEc) = shell::fill_relaxed_state(unpack(theta, index_, atrium_index_, options_.activation_input), s.x);
   s.x(unknowns()) = static_cast<double>(circ::ValveRegime::kFilling);
   return s;
 }
 
 Status LumpedSphere::step_to(State& state, const Eigen::Ref<const Eigen::VectorXd>& theta,
                              double t_end, int* newton_iterations, int* step_cuts) const {
-  const Model m = unpack(theta, index_, atrium_index_);
+  const Model m = unpack(theta, index_, atrium_index_, options_.activation_input);
   return m.chamber ? steps_to<kUnknowns + 1>(m, options_, state, t_end, newton_iterations, step_cuts)
                    : steps_to<kUnknowns>(m, options_, state, t_end, newton_iterations, step_cuts);
 }
@@ -438,7 +440,7 @@ Status LumpedSphere::advance(State& state, const Eigen::Ref<const Eigen::VectorX
 
 Eigen::VectorXd LumpedSphere::sample(const State& state,
                                      const Eigen::Ref<const Eigen::VectorXd>& theta) const {
-  const Model m = unpack(theta, index_, atrium_index_);
+  const Model m = unpack(theta, index_, atrium_index_, options_.activation_input);
   const auto& x = state.x;
   const double s = 1.0 + x(kY) / m.R0;
   const double C = s * s;
@@ -465,7 +467,7 @@ RunResult LumpedSphere::run_warm(const Eigen::Ref<const Eigen::VectorXd>& theta,
     return shell::failed_run(channels(), st);
   }
   return shell::run_periodic(
-      unpack(theta, index_, atrium_index_), options_, channels(), initial_state(theta),
+      unpack(theta, index_, atrium_index_, options_.activation_input), options_, channels(), initial_state(theta),
       [&](State& s, double t1, int* its, int* cuts) { return step_to(s, theta, t1, its, cuts); },
       [&](const State& s) { return sample(s, theta); }, from.size() > 0 ? &from : nullptr,
       produce);

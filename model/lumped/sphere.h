@@ -2,6 +2,7 @@
 // Mechanobiol 13:897) coupled to valves and a two-stage Windkessel. docs/models.md sections 1-2.
 #pragma once
 
+#include "model/bcs/active_law.h"
 #include "model/simulator.h"
 
 #include <string>
@@ -30,6 +31,9 @@ struct SphereOptions {
   int output_every = 1;              // keep every k-th step in the returned trajectory
   double newton_tolerance = 1e-10;   // relative residual tolerance of the per-step Newton solve
   int newton_max_iterations = 25;
+  // Shape of the activation input u(t) (`activation_shape:`; docs/models.md s.1): square by default,
+  // or the ramped u(t) of Caruel et al. 2014. The regional model does not read it yet.
+  bcs::ActivationInput activation_input;
   // Empty when valid, else a message naming the field and the expected range.
   std::string validate() const;
 };

@@ -2,7 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <iterator>
 
 namespace sigmaheart::model::bcs {
 namespace {
@@ -159,4 +161,82 @@ TEST(ActiveParameters, ValidateNamesTheBadField) {
 }
 
 }  // namespace
+// --- The ramped activation input (Caruel et al. 2014) ---------------------------------------
+
+ActiveParameters caruel_rates() {
+  ActiveParameters p;
+  p.input.shape = ActivationShape::kRamped;
+  p.k_ATP = 35.0;
+  p.k_RS = 12.0;
+  p.APD = 0.24;
+  return p;
+}
+
+TEST(RampedActivation, ReproducesTheCaruelTableOfSvZeroDSolverAtItsKnots) {
+  // chamber_sphere_straindependent_Caruel.json: u = -3.2, 35, 35, 0, -12, -12, -3.2 1/s at
+  // t = 0.10, 0.27, 0.32, 0.34, 0.46, 0.59, 0.60 s of an 0.8 s cycle (depolarisation at 0.1 s).
+  const ActiveParameters p = caruel_rates();
+  const double period = 0.8, Td = 0.1;
+  const double t[] = {0.10, 0.27, 0.32, 0.34, 0.46, 0.59, 0.60, 0.75, 0.05, 0.185, 0.40};
+  const double u[] = {-3.2, 35.0, 35.0, 0.0, -12.0, -12.0, -3.2, -3.2, -3.2, 15.9, -6.0};
+  for (size_t i = 0; i < std::size(t); ++i)
+    EXPECT_NEAR(activation(t[i], Td, period, p), u[i], 1e-9) << "t = " << t[i];
+  // The next beat repeats it.
+  EXPECT_NEAR(activation(0.27 + period, Td, period, p), 35.0, 1e-9);
+}
+
+TEST(RampedActivation, StepAveragesAreTheExactIntegralsOfTheProfile) {
+  const ActiveParameters p = caruel_rates();
+  const double period = 0.8;
+  // Steps across knots, across the zero of the fall, across the wrap of the period, longer than a
+  // period; T_d inside and past the period.
+  const double steps[][3] = {{0.26, 0.28, 0.1}, {0.335, 0.345, 0.1}, {0.05, 0.15, 0.1}, {0.79, 0.93, 0.1},
+                             {0.0, 2.0, 0.1},   {0.3, 0.31, 0.75},   {1.2, 1.25, 1.7}, {0.1, 0.1001, 0.1}};
+  for (const auto& s : steps) {
+    const double t0 = s[0], t1 = s[1], Td = s[2];
+    const StepActivation a = step_activation(t0, t1, Td, period, p);
+    // Midpoint rule on 200 000 panels: the profile is piecewise linear, so the error is that of
+    // the few panels holding a kink, below 1e-6 1/s here.
+    const int n = 200000;
+    double abs_sum = 0.0, plus_sum = 0.0;
+    for (int k = 0; k < n; ++k) {
+      const double u = activation(t0 + (k + 0.5) * (t1 - t0) / n, Td, period, p);
+      abs_sum += std::abs(u);
+      plus_sum += std::max(u, 0.0);
+    }
+    EXPECT_NEAR(a.u_abs, abs_sum / n, 1e-6) << "[" << t0 << ", " << t1 << "], T_d " << Td;
+    EXPECT_NEAR(a.u_plus, plus_sum / n, 1e-6) << "[" << t0 << ", " << t1 << "], T_d " << Td;
+  }
+}
+
+TEST(RampedActivation, KnotsPastThePeriodAreCutWhereTheNextBeatStarts) {
+  ActiveParameters p = caruel_rates();
+  p.APD = 0.3;  // relaxation knots at 0.42, 0.55, 0.56 s: past a 0.5 s period
+  const double period = 0.5;
+  // Just before the next depolarisation: on the ramp from 0 (at 0.3 s) to -12 (at 0.42 s).
+  EXPECT_NEAR(activation(period - 1e-12, 0.0, period, p), -12.0, 1e-6);
+  EXPECT_NEAR(activation(0.36, 0.0, period, p), -6.0, 1e-9);
+  // And the profile restarts at the rest rate.
+  EXPECT_NEAR(activation(period, 0.0, period, p), -3.2, 1e-9);
+}
+
+TEST(RampedActivation, TheSquareWaveStaysTheDefault) {
+  const ActiveParameters p;
+  EXPECT_EQ(p.input.shape, ActivationShape::kSquare);
+  EXPECT_EQ(activation(0.1, 0.0, 1.0, p), p.k_ATP);
+  EXPECT_EQ(activation(0.5, 0.0, 1.0, p), -p.k_RS);
+}
+
+TEST(RampedActivation, InvalidShapesAreRefusedWithTheField) {
+  ActiveParameters p = caruel_rates();
+  p.input.ramp.rise = 0.95;  // rise + fall > 1
+  EXPECT_NE(p.validate().find("rise + fall"), std::string::npos) << p.validate();
+  p.input.ramp.rise = 0.5;
+  p.input.ramp.rest = 2.0;
+  EXPECT_EQ(p.validate().rfind("rest = ", 0), 0u) << p.validate();
+  p.input.ramp.rest = 0.2;
+  p.input.ramp.relax_ramp = -0.1;
+  EXPECT_EQ(p.validate().rfind("relax_ramp", 0), 0u) << p.validate();
+}
+
 }  // namespace sigmaheart::model::bcs

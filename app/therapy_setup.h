@@ -1,0 +1,60 @@
+// The `therapy:` section of a config (docs/estimation.md s.12), parsed and checked against the
+// model in one place for `therapy` and `validate`:
+//
+//   therapy:
+//     personalization: ../results/lbbb-personalize.h5   # optional: a calibrate or personalize result
+//                                # (its posterior is propagated; the model must be this config's)
+//     uncertainty: {method: unscented, sigma_points: star, kappa: 1, samples: 200, seed: 1,
+//                   interval: 90 %}       # method unscented | monte-carlo | point
+//     responder_threshold: 10 %  # AHR above which a therapy counts as a response
+//     scar: auto                 # auto (segments whose contractility at the estimate is below
+//                                # scar_threshold of the median) | none | [7, 13, ...]
+//     scar_threshold: 50 %
+//     intrinsic_conduction: true # fuse with the intrinsic activation (false: AV block)
+//     conduction_velocity: 0.6 m/s   # the 17-segment graph of models paced by segment times
+//     timing: {pr_interval: 160 ms, av_delay: 120 ms, vv_delay: 0 ms}  # vv > 0: LV lead first
+//     rv_lead: {segment: 9, surface: epicardium}   # or {point: [x, y, z]} (3D models; m or "10 mm")
+//     lv_leads: all              # or [5, 6, 11] or [{segment: 5, surface: endocardium}, {point: [...]}]
+//     modes: [biv]               # biv | lv-only
+//     sweep: {av_delay: [60 ms, 90 ms, 120 ms, 150 ms, 180 ms], vv_delay: [-40 ms, -20 ms, 0 ms, 20 ms, 40 ms]}
+//                                # at the best site; `sweep: none` for none
+//     pv_loops: true             # run the baseline and the best site at the posterior mean
+//                                # once more for the PV loops of the report (2 runs)
+//     threads: 2                 # --threads overrides
+//
+// Without `personalization` the therapies run once at the config's parameters (no uncertainty):
+// how a known heart (a 3D truth) is paced. With it the parameters are the result's (every model
+// parameter at its estimate) and the config may not set `simulator.parameters`.
+#pragma once
+
+#include "app/config.h"
+#include "app/io/posterior_file.h"
+#include "estimation/propagation.h"
+#include "estimation/therapy/therapy.h"
+
+#include <Eigen/Core>
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace sigmaheart::app {
+
+struct TherapyProblem {
+  estimation::therapy::TherapyOptions options;  // ensemble threads from the config (--threads overrides)
+  int threads = 0;                              // 0: not given
+  bool pv_loops = true;                         // the beats at the posterior mean (2 more runs)
+  std::optional<io::PosteriorFile> personalization;
+  std::filesystem::path personalization_file;
+  Eigen::VectorXd base_theta;                   // every model parameter (SI)
+  std::string scar_source;                      // how the scar segments were chosen, for reports
+  std::string route;                            // how the model is paced (PacedSimulator::route)
+};
+
+// Every problem is an InputError at the offending key (file:line:column): a lead site outside the
+// mesh or in no segment, a point on a model paced by segment times, an AV delay outside its range,
+// a model whose activation cannot be paced, a personalisation file of another model.
+TherapyProblem parse_therapy(const Config& config);
+
+}  // namespace sigmaheart::app

@@ -1,0 +1,310 @@
+#include "estimation/therapy/therapy.h"
+
+#include "estimation/enum_names.h"
+#include "model/activation/paced_simulator.h"
+#include "observers/global_indices.h"
+#include "observers/pump_work.h"
+
+#include <cmath>
+#include <memory>
+#include <sstream>
+#include <stdexcept>
+
+namespace sigmaheart::estimation::therapy {
+
+namespace act = model::activation;
+
+constexpr std::array<EnumName<Mode>, 2> kModeNames{{{Mode::kBiventricular, "biv"}, {Mode::kLvOnly, "lv-only"}}};
+const char* to_string(Mode mode) { return enum_to_string(kModeNames, mode); }
+std::optional<Mode> parse_mode(const std::string& text) { return enum_from_string(kModeNames, text); }
+
+const char* to_string(Termination t) {
+  return t == Termination::kOk ? "ok" : t == Termination::kSomeFailed ? "some-therapies-failed" : "baseline-failed";
+}
+
+std::string Timing::validate() const {
+  std::ostringstream s;
+  if (!(pr_interval >= 0.08 && pr_interval <= 0.4)) s << "pr_interval = " << 1e3 * pr_interval << " ms must lie in [80, 400] ms";
+  else if (!(av_delay >= 0.04 && av_delay <= 0.35)) s << "av_delay = " << 1e3 * av_delay << " ms must lie in [40, 350] ms";
+  else if (!(vv_delay >= -0.08 && vv_delay <= 0.08)) s << "vv_delay = " << 1e3 * vv_delay << " ms must lie in [-80, 80] ms";
+  return s.str();
+}
+
+std::vector<act::LeadSite> TherapyOptions::sites() const {
+  if (!lv_sites.empty()) return lv_sites;
+  std::vector<act::LeadSite> all;
+  for (int s = 1; s <= act::kSegments; ++s) all.push_back({s, act::Surface::kEpicardium, std::nullopt});
+  return all;
+}
+
+std::string TherapyOptions::validate() const {
+  if (const std::string m = timing.validate(); !m.empty()) return "timing: " + m;
+  for (double av : av_sweep) {
+    Timing t = timing;
+    t.av_delay = av;
+    if (const std::string m = t.validate(); !m.empty()) return "av_sweep: " + m;
+  }
+  for (double vv : vv_sweep) {
+    Timing t = timing;
+    t.vv_delay = vv;
+    if (const std::string m = t.validate(); !m.empty()) return "vv_sweep: " + m;
+  }
+  if (modes.empty()) return "modes: at least one pacing mode";
+  if (!(responder_threshold > -100.0 && std::isfinite(responder_threshold)))
+    return "responder_threshold must be a finite AHR above -100 %";
+  if (const std::string m = graph.validate(); !m.empty()) return m;
+  act::PacingPlan probe;
+  probe.scar = scar;
+  probe.stimuli.push_back({"RV", rv_site, 0.0});
+  for (const auto& s : sites()) probe.stimuli.push_back({"LV", s, 0.0});
+  if (const std::string m = probe.validate(); !m.empty()) return m;
+  return ensemble.validate();
+}
+
+act::PacingPlan pacing_plan(const Therapy& therapy, const TherapyOptions& options) {
+  act::PacingPlan plan;
+  plan.scar = options.scar;
+  if (therapy.baseline) return plan;  // the heart's own rhythm
+  plan.intrinsic = options.intrinsic_conduction;
+  const Timing& t = therapy.timing;
+  // The first ventricular stimulus fires av_delay after the atrial event, which sits pr_interval
+  // before the intrinsic onset; the LV lead leads the RV lead by vv_delay.
+  const double first = t.av_delay - t.pr_interval;
+  const double rv = first + std::max(t.vv_delay, 0.0), lv = first + std::max(-t.vv_delay, 0.0);
+  const act::LeadSite site = options.sites().at(static_cast<size_t>(therapy.lv_site));
+  if (therapy.mode == Mode::kBiventricular) plan.stimuli.push_back({"RV", options.rv_site, rv});
+  plan.stimuli.push_back({"LV", site, therapy.mode == Mode::kBiventricular ? lv : first});
+  return plan;
+}
+
+namespace {
+
+// One member: (therapy k, point i) -> the raw responses of that run.
+class MemberModel final : public ForwardModel {
+ public:
+  MemberModel(const model::Simulator& model, std::shared_ptr<const std::vector<act::PacingPlan>> plans,
+              std::shared_ptr<const Eigen::MatrixXd> thetas, act::GraphPacingOptions graph)
+      : model_(model.clone()), plans_(std::move(plans)), thetas_(std::move(thetas)), graph_(graph),
+        indices_({{"dPdt_max", "SV", "EF", "EDV", "ESV"}}, model_->channels()), work_(model_->channels()) {}
+
+  int input_size() const override { return 2; }
+  std::vector<std::string> input_names() const override { return {"therapy", "point"}; }
+  std::vector<model::Channel> outputs() const override {
+    std::vector<model::Channel> out = indices_.outputs();
+    const auto w = work_.outputs();
+    out.insert(out.begin() + 5, w.front());
+    out.push_back({"TAT", "s", "total activation time: latest minus earliest activation outside scar"});
+    out.insert(out.end(), w.begin() + 1, w.end());
+    return out;
+  }
+  model::Status evaluate(const Eigen::Ref<const Eigen::VectorXd>& in, Eigen::Ref<Eigen::VectorXd> z) override {
+    const auto k = static_cast<size_t>(std::lround(in(0)));
+    const auto i = static_cast<Eigen::Index>(std::lround(in(1)));
+    act::PacedSimulator paced(*model_, plans_->at(k), graph_);
+    const model::RunResult r = paced.run(thetas_->row(i).transpose());
+    if (!r.status.ok()) return r.status;
+    Eigen::VectorXd gi(indices_.size()), w(work_.size());
+    if (auto s = indices_.observe(r.trajectory, gi); !s.ok()) return s;
+    if (auto s = work_.observe(r.trajectory, w); !s.ok()) return s;
+    z.head(5) = gi;
+    z(5) = w(0);
+    z(6) = paced.outcome().total_activation();
+    z.tail(w.size() - 1) = w.tail(w.size() - 1);
+    return model::Status::Ok();
+  }
+  std::unique_ptr<ForwardModel> clone() const override {
+    return std::make_unique<MemberModel>(*model_, plans_, thetas_, graph_);
+  }
+
+ private:
+  std::unique_ptr<model::Simulator> model_;
+  std::shared_ptr<const std::vector<act::PacingPlan>> plans_;
+  std::shared_ptr<const Eigen::MatrixXd> thetas_;
+  act::GraphPacingOptions graph_;
+  observers::GlobalIndices indices_;
+  observers::PumpWork work_;
+};
+
+// Raw columns: dPdt_max, SV, EF, EDV, ESV, stroke_work, TAT[, septal_work, lateral_work,
+// work_difference]. Change columns: AHR, dSV, dEF, dSW, dTAT[, dWD].
+enum Raw : int { kDpdt, kSv, kEf, kEdv, kEsv, kSw, kTat, kSeptal, kLateral, kDifference };
+
+ResponseNames response_names(bool regional) {
+  ResponseNames n;
+  n.raw = {"dPdt_max", "SV", "EF", "EDV", "ESV", "stroke_work", "TAT"};
+  n.raw_units = {"Pa/s", "m^3", "1", "m^3", "m^3", "J", "s"};
+  n.change = {"AHR", "dSV", "dEF", "dSW", "dTAT"};
+  n.change_units = {"%", "m^3", "1", "J", "s"};
+  if (regional) {
+    n.raw.insert(n.raw.end(), {"septal_work", "lateral_work", "work_difference"});
+    n.raw_units.insert(n.raw_units.end(), {"J", "J", "J"});
+    n.change.push_back("dWD");
+    n.change_units.push_back("J");
+  }
+  return n;
+}
+
+Eigen::MatrixXd changes(const Eigen::MatrixXd& raw, const Eigen::MatrixXd& base, bool regional) {
+  Eigen::MatrixXd c(raw.rows(), regional ? 6 : 5);
+  c.col(0) = 100.0 * (raw.col(kDpdt).array() / base.col(kDpdt).array() - 1.0);
+  c.col(1) = raw.col(kSv) - base.col(kSv);
+  c.col(2) = raw.col(kEf) - base.col(kEf);
+  c.col(3) = raw.col(kSw) - base.col(kSw);
+  c.col(4) = raw.col(kTat) - base.col(kTat);
+  if (regional) c.col(5) = raw.col(kDifference) - base.col(kDifference);
+  return c;
+}
+
+// Runs `therapies` at every point; fills their raw rows and statuses.
+std::vector<TherapyOutcome> evaluate(const model::Simulator& model, const std::vector<Therapy>& therapies,
+                                     const std::shared_ptr<const Eigen::MatrixXd>& thetas, const Eigen::VectorXd& base,
+                                     const TherapyOptions& o, const std::string& phase, TherapySummary& summary) {
+  auto plans = std::make_shared<std::vector<act::PacingPlan>>();
+  std::vector<TherapyOutcome> out(therapies.size());
+  for (size_t k = 0; k < therapies.size(); ++k) {
+    plans->push_back(pacing_plan(therapies[k], o));
+    // The plan on this model now: a site outside the mesh or a point on the graph is bad input.
+    const act::PacedSimulator probe(model, plans->back(), o.graph);
+    act::PacingOutcome at_base;
+    probe.paced_theta(base, &at_base);
+    out[k].therapy = therapies[k];
+    out[k].captured = at_base.captured;
+    out[k].note = at_base.note;
+    out[k].segment_times = at_base.segment_times;
+  }
+  const int n = static_cast<int>(thetas->rows());
+  const int members = static_cast<int>(therapies.size()) * n;
+  Eigen::MatrixXd inputs(members, 2);
+  for (int k = 0; k < static_cast<int>(therapies.size()); ++k)
+    for (int i = 0; i < n; ++i) inputs.row(k * n + i) << k, i;
+  if (o.on_phase) o.on_phase(phase, members);
+  const MemberModel prototype(model, plans, thetas, o.graph);
+  Ensemble ensemble(prototype, o.ensemble);
+  const EnsembleResult r = ensemble.evaluate(inputs);
+  summary.simulations += members;
+  summary.failures += r.failures();
+  for (size_t k = 0; k < therapies.size(); ++k) {
+    out[k].raw = r.Z.middleRows(static_cast<Eigen::Index>(k) * n, n);
+    out[k].status.assign(r.status.begin() + static_cast<long>(k) * n, r.status.begin() + static_cast<long>(k + 1) * n);
+  }
+  return out;
+}
+
+// Moments of one therapy against the baseline's rows.
+void summarise(TherapyOutcome& t, const TherapySummary& s, const Eigen::MatrixXd& base_raw, bool regional,
+               const TherapyOptions& o) {
+  t.raw_moments = response_moments(s.points, t.raw, o.propagation);
+  t.change = changes(t.raw, base_raw, regional);
+  t.change_moments = response_moments(s.points, t.change, o.propagation);
+  for (size_t i = 0; i < t.status.size() && t.failure.empty(); ++i)
+    if (!t.status[i].ok() && !t.change_moments.ok)
+      t.failure = "point " + std::to_string(i) + ": " + model::to_string(t.status[i].code) + ": " + t.status[i].message;
+  if (t.failure.empty() && !t.change_moments.ok) t.failure = "the baseline failed";
+  if (t.failure.empty() && !t.raw_moments.ok) t.failure = "no responses";
+  t.p_responder =
+      probability_above(s.points, t.change, t.change_moments, o.responder_threshold, o.propagation)(TherapySummary::kAhr);
+}
+
+}  // namespace
+
+TherapySummary run_therapy_study(const model::Simulator& model, const Eigen::VectorXd& base_theta,
+                                 const std::vector<std::vector<int>>& estimated,
+                                 const std::optional<Posterior>& posterior, const TherapyOptions& o) {
+  if (const std::string m = o.validate(); !m.empty()) throw std::invalid_argument("therapy: " + m);
+  if (base_theta.size() != model.parameters().size())
+    throw std::invalid_argument("therapy: the parameter vector has the wrong size for " + model.name());
+  TherapySummary s;
+  // The points: the posterior's, each written into base_theta; without one the base itself.
+  auto thetas = std::make_shared<Eigen::MatrixXd>();
+  if (posterior) {
+    if (static_cast<int>(estimated.size()) != posterior->size())
+      throw std::invalid_argument("therapy: " + std::to_string(estimated.size()) + " model indices for " +
+                                  std::to_string(posterior->size()) + " posterior parameters");
+    s.points = propagation_points(*posterior, o.propagation);
+    *thetas = base_theta.transpose().replicate(s.points.count(), 1);
+    for (size_t j = 0; j < estimated.size(); ++j)
+      for (int i : estimated[j]) thetas->col(i) = s.points.theta.col(static_cast<Eigen::Index>(j));
+  } else {
+    s.points.method = PropagationMethod::kPoint;
+    s.points.eta.resize(1, 0);
+    s.points.theta.resize(1, 0);
+    s.points.wm = s.points.wc = Eigen::VectorXd::Ones(1);
+    *thetas = base_theta.transpose();
+  }
+  TherapyOptions opts = o;
+  if (!posterior) opts.propagation.method = PropagationMethod::kPoint;
+  const bool regional = observers::PumpWork(model.channels()).regional();
+  s.names = response_names(regional);
+
+  // Baseline and the map, in one ensemble.
+  const auto sites = o.sites();
+  s.sites = static_cast<int>(sites.size());
+  std::vector<Therapy> therapies = {{"baseline", true, Mode::kBiventricular, -1, o.timing}};
+  for (Mode mode : o.modes)
+    for (int j = 0; j < s.sites; ++j)
+      therapies.push_back({std::string(to_string(mode)) + " LV " + sites[static_cast<size_t>(j)].describe(), false, mode,
+                           j, o.timing});
+  std::vector<TherapyOutcome> all = evaluate(model, therapies, thetas, base_theta, opts, "baseline and lead-site map", s);
+  s.baseline = std::move(all.front());
+  s.map.assign(std::make_move_iterator(all.begin() + 1), std::make_move_iterator(all.end()));
+  const Eigen::MatrixXd base_raw = s.baseline.raw;
+  summarise(s.baseline, s, base_raw, regional, opts);
+  for (auto& t : s.map) summarise(t, s, base_raw, regional, opts);
+
+  // The best site of the first mode and the probability of each to be the best (jointly over the
+  // points, sites that failed left out).
+  std::vector<int> ok_sites;
+  for (int j = 0; j < s.sites; ++j)
+    if (s.map[static_cast<size_t>(j)].ok()) ok_sites.push_back(j);
+  s.p_best = Eigen::VectorXd::Constant(s.sites, std::nan(""));
+  if (!ok_sites.empty()) {
+    Eigen::MatrixXd ahr(s.points.count(), static_cast<Eigen::Index>(ok_sites.size()));
+    for (size_t c = 0; c < ok_sites.size(); ++c) ahr.col(static_cast<Eigen::Index>(c)) = s.map[static_cast<size_t>(ok_sites[c])].change.col(0);
+    const ResponseMoments m = response_moments(s.points, ahr, opts.propagation);
+    const Eigen::VectorXd p = probability_largest(s.points, ahr, m, opts.propagation);
+    Eigen::Index c = 0;
+    m.mean.maxCoeff(&c);
+    s.best = ok_sites[static_cast<size_t>(c)];
+    for (size_t k = 0; k < ok_sites.size(); ++k) s.p_best(ok_sites[k]) = p(static_cast<Eigen::Index>(k));
+  }
+
+  // AV and VV sweeps at the best site (biventricular).
+  if (s.best >= 0 && (!o.av_sweep.empty() || !o.vv_sweep.empty())) {
+    std::vector<Therapy> sweep;
+    const std::string where = " at LV " + sites[static_cast<size_t>(s.best)].describe();
+    for (double av : o.av_sweep) {
+      Timing t = o.timing;
+      t.av_delay = av;
+      sweep.push_back({"AV " + std::to_string(std::lround(1e3 * av)) + " ms" + where, false, Mode::kBiventricular, s.best, t});
+    }
+    for (double vv : o.vv_sweep) {
+      Timing t = o.timing;
+      t.vv_delay = vv;
+      sweep.push_back({"VV " + std::to_string(std::lround(1e3 * vv)) + " ms" + where, false, Mode::kBiventricular, s.best, t});
+    }
+    s.sweep = evaluate(model, sweep, thetas, base_theta, opts, "AV/VV sweep", s);
+    for (auto& t : s.sweep) summarise(t, s, base_raw, regional, opts);
+  }
+
+  int failed = 0;
+  for (const auto* group : {&s.map, &s.sweep})
+    for (const auto& t : *group) failed += t.ok() ? 0 : 1;
+  if (!s.baseline.ok()) {
+    s.termination = Termination::kBaselineFailed;
+    s.message = "the baseline failed (" + s.baseline.failure + "): no therapy has a response";
+  } else if (failed > 0) {
+    s.termination = Termination::kSomeFailed;
+    s.message = std::to_string(failed) + " therapies failed; the others are reported";
+  } else {
+    s.message = "every therapy ran at every point";
+  }
+  return s;
+}
+
+model::RunResult therapy_beat(const model::Simulator& model, const Eigen::VectorXd& theta, const Therapy& therapy,
+                              const TherapyOptions& options) {
+  act::PacedSimulator paced(model, pacing_plan(therapy, options), options.graph);
+  return paced.run(theta);
+}
+
+}  // namespace sigmaheart::estimation::therapy
