@@ -557,10 +557,11 @@ namespace {
 Model unpack_model(const Eigen::Ref<const Eigen::VectorXd>& theta, const std::vector<int>& g,
                    const std::vector<int>& sigma0, const std::vector<int>& td,
                    const std::vector<int>& stiff, const std::vector<int>& scar,
-                   const std::vector<double>& shares) {
+                   const std::vector<double>& shares, const bcs::ActivationInput& input) {
   Model m;
   static_cast<shell::Shell&>(m) = shell::unpack(theta, g);
   m.K_patch = theta(g.back());
+  m.act.input = input;  // the shape of u(t) of every patch (numerics activation_shape, as the sphere's)
   const bcs::ActiveParameters act = m.act;
   m.patch.resize(shares.size());
   for (size_t p = 0; p < shares.size(); ++p) {
@@ -592,7 +593,7 @@ State RegionalVentricle::initial_state(const Eigen::Ref<const Eigen::VectorXd>& 
     s.x.setConstant(std::numeric_limits<double>::quiet_NaN());
     return s;
   }
-  const Model m = unpack_model(theta, global_, sigma0_, td_, stiff_, scar_, shares_);
+  const Model m = unpack_model(theta, global_, sigma0_, td_, stiff_, scar_, shares_, options_.numerics.activation_input);
   // As the sphere: relaxed, in static passive equilibrium with the atrial pressure (every c_p = 1;
   // with unequal stiffness scales the first step re-balances the tensions), contractile elements
   // at rest, arteries at a typical diastolic pressure.
@@ -606,7 +607,7 @@ State RegionalVentricle::initial_state(const Eigen::Ref<const Eigen::VectorXd>& 
 Status RegionalVentricle::step_to(State& state, const Eigen::Ref<const Eigen::VectorXd>& theta,
                                   double t_end, int* newton_iterations, int* step_cuts) const {
   const Layout l{n_};
-  const Model m = unpack_model(theta, global_, sigma0_, td_, stiff_, scar_, shares_);
+  const Model m = unpack_model(theta, global_, sigma0_, td_, stiff_, scar_, shares_, options_.numerics.activation_input);
   auto step = [&](const Eigen::VectorXd& xo, double ta, double tb, Eigen::VectorXd& xn) {
     return newton_step(m, l, xo, ta, tb, options_.numerics, xn);
   };
@@ -624,7 +625,7 @@ Status RegionalVentricle::advance(State& state, const Eigen::Ref<const Eigen::Ve
 Eigen::VectorXd RegionalVentricle::sample(const State& state,
                                           const Eigen::Ref<const Eigen::VectorXd>& theta) const {
   const Layout l{n_};
-  const Model m = unpack_model(theta, global_, sigma0_, td_, stiff_, scar_, shares_);
+  const Model m = unpack_model(theta, global_, sigma0_, td_, stiff_, scar_, shares_, options_.numerics.activation_input);
   const double V = cavity_volume(m, state.x(kY));
   std::vector<double> c;
   relative_stretches(m, l, state.x, c);
@@ -637,7 +638,7 @@ Eigen::VectorXd RegionalVentricle::sample(const State& state,
 RunResult RegionalVentricle::run(const Eigen::Ref<const Eigen::VectorXd>& theta) {
   if (Status st = check_theta(theta); !st.ok()) return shell::failed_run(channels(), st);
   return shell::run_periodic(
-      unpack_model(theta, global_, sigma0_, td_, stiff_, scar_, shares_), options_.numerics,
+      unpack_model(theta, global_, sigma0_, td_, stiff_, scar_, shares_, options_.numerics.activation_input), options_.numerics,
       channels(), initial_state(theta),
       [&](State& s, double t1, int* its, int* cuts) { return step_to(s, theta, t1, its, cuts); },
       [&](const State& s) { return sample(s, theta); });

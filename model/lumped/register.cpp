@@ -26,12 +26,6 @@ SphereOptions read_sphere_options(const OptionReader& node, const std::vector<st
 RegionalOptions read_regional_options(const OptionReader& node) {
   RegionalOptions o;
   o.numerics = read_sphere_options(node, {"activation", "area_shares"});
-  // The ramped u(t) reaches the regional model's patches once regional.cpp copies
-  // numerics.activation_input into its ActiveParameters (as sphere.cpp does); until then a config
-  // asking for it would be run with the square wave without a word.
-  if (node.has("activation_shape"))
-    node.fail("activation_shape", node.path() + ".activation_shape: lumped-regional does not read the "
-                                  "activation shape yet (square wave only); lumped-sphere and lv-3d do");
   if (node.has("area_shares")) {
     o.area_shares = node.quantities("area_shares", "1");
     if (o.area_shares.empty()) node.fail("area_shares", "expected at least one share");

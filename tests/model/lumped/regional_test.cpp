@@ -35,9 +35,14 @@ double rel_diff(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
   return (a - b).cwiseAbs().maxCoeff() / std::max(1e-300, b.cwiseAbs().maxCoeff());
 }
 
-TEST(RegionalVentricle, OnePatchReproducesTheSphereToRoundOff) {
-  LumpedSphere sphere;
+// The one-patch regional model and the sphere, both with the activation input `input` (square or
+// Caruel's ramp, numerics activation_shape), agree state by state and channel by channel.
+void expect_one_patch_equals_sphere(const bcs::ActivationInput& input) {
+  SphereOptions so;
+  so.activation_input = input;
+  LumpedSphere sphere(so);
   RegionalOptions o;
+  o.numerics = so;
   o.area_shares = {1.0};
   RegionalVentricle regional(o);
   const Eigen::VectorXd ts = sphere.parameters().nominal();
@@ -68,6 +73,23 @@ TEST(RegionalVentricle, OnePatchReproducesTheSphereToRoundOff) {
   }
   EXPECT_EQ((rr.trajectory.channel("phase") - rs.trajectory.channel("phase")).cwiseAbs().maxCoeff(), 0.0);
   EXPECT_LE(rel_diff(rr.trajectory.channel("V_seg01"), rs.trajectory.channel("V_lv")), 1e-9);
+}
+
+TEST(RegionalVentricle, OnePatchReproducesTheSphereToRoundOff) { expect_one_patch_equals_sphere({}); }
+
+// The ramped u(t) of Caruel et al. 2014 reaches every patch: the one-patch model is still the
+// sphere with the same input, and the beat differs from the square wave's.
+TEST(RegionalVentricle, OnePatchWithTheRampedInputReproducesTheRampedSphere) {
+  bcs::ActivationInput ramped;
+  ramped.shape = bcs::ActivationShape::kRamped;
+  expect_one_patch_equals_sphere(ramped);
+  RegionalOptions square, ramp;
+  square.area_shares = ramp.area_shares = {1.0};
+  ramp.numerics.activation_input = ramped;
+  const RegionalVentricle a(square), b(ramp);
+  const RunResult ra = a.run(a.parameters().nominal()), rb = b.run(b.parameters().nominal());
+  ASSERT_TRUE(ra.status.ok() && rb.status.ok());
+  EXPECT_GT(rel_diff(rb.trajectory.channel("P_lv"), ra.trajectory.channel("P_lv")), 1e-3);
 }
 
 TEST(RegionalVentricle, AhaAreaSharesSumToOneWithTheDocumentedRingShares) {
