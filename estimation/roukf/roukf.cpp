@@ -86,7 +86,7 @@ std::string RoukfOptions::validate() const {
   if (!(pass_growth > 0.0 && std::isfinite(pass_growth))) return "roukf: pass_growth must be positive";
   if (map_iterations < 0) return "roukf: map_iterations must be >= 0";
   if (noise_scale) {
-    if (const std::string e = noise_scale->validate(); !e.empty()) return "roukf: " + e;
+    if (const std::string e = noise_scale->validate(); !e.empty()) return "roukf: noise scale prior: " + e;
     if (pass_mode != RoukfPassMode::kSplit || map_iterations == 0) {
       return "roukf: an estimated noise scale needs split passes and the MAP refinement (map_iterations > 0)";
     }

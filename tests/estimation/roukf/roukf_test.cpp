@@ -548,10 +548,10 @@ TEST(Roukf, NoiseScalesLandOnTheMarginalMapPointAndWidenThePosterior) {
   // Channel z1: an alternating error of 0.2, four times the stated 0.05 (two parameters cannot
   // follow it), so the scale's posterior mode is about (4 + 8 x 16 / 2) / (3 + 4 + 1) = 8.5: s ~ 2.9.
   for (int k = 0; k < 8; ++k) data.values(k, 0) += (k % 2 ? -0.2 : 0.2);
-  o.noise_scale = ChannelNoisePrior{};
+  o.noise_scale = NoiseScalePrior{};
   const RoukfSummary s = run_roukf(sim, prior, data, o);
   ASSERT_TRUE(s.ok()) << s.message << " / " << s.map_note;
-  const ChannelNoisePrior np;
+  const NoiseScalePrior np;
   auto phi = [&](const VectorXd& eta) {
     const VectorXd z = observations(sim, prior, data, eta);
     VectorXd r(16);
