@@ -17,6 +17,7 @@
 #include "observers/global_indices.h"
 #include "tests/app/test_support.h"
 #include "tests/model/simulator_contract.h"
+#include "tests/support/expect_status.h"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -128,6 +129,12 @@ std::unique_ptr<model::Simulator> make_simulator(const fs::path& config) {
   return c.simulator.make();
 }
 
+// The external model of write_config(dir) around the Python beat script (write_script).
+std::unique_ptr<model::Simulator> script_simulator(const fs::path& dir) {
+  write_script(dir);
+  return make_simulator(write_config(dir));
+}
+
 Eigen::VectorXd theta(double fail, double ef = 0.6) {
   Eigen::VectorXd t(4);
   t << 1.4e-4, ef, 16000.0, fail;
@@ -192,8 +199,7 @@ TEST(Process, TailLinesKeepsTheLastLines) {
 // (python3 and C++ call the same libm; the CSV carries shortest round-trip text).
 TEST(ExternalModel, ProgramGivesTheInProcessNumbers) {
   const auto dir = scratch_dir();
-  write_script(dir);
-  auto sim = make_simulator(write_config(dir));
+  auto sim = script_simulator(dir);
   EXPECT_EQ(sim->name(), "external");
   ASSERT_EQ(sim->parameters().size(), 4);
   const Eigen::VectorXd th = theta(0.0, 0.55);
@@ -218,11 +224,9 @@ TEST(ExternalModel, ProgramGivesTheInProcessNumbers) {
 
 TEST(ExternalModel, ACrashIsProcessFailedWithItsStderrAndTheKeptDirectory) {
   const auto dir = scratch_dir();
-  write_script(dir);
-  auto sim = make_simulator(write_config(dir));
+  auto sim = script_simulator(dir);
   const model::RunResult r = sim->run(theta(0.55));
-  EXPECT_EQ(r.status.code, StatusCode::kProcessFailed);
-  EXPECT_NE(r.status.message.find("exit code 3"), std::string::npos) << r.status.message;
+  expect_status(r.status, StatusCode::kProcessFailed, "exit code 3");
   EXPECT_NE(r.status.message.find("model exploded at t = 0.3 s"), std::string::npos) << r.status.message;
   EXPECT_NE(r.status.message.find((dir / "runs").string()), std::string::npos) << r.status.message;
   // Kept for inspection, with the parameter file the program was given.
@@ -246,8 +250,7 @@ TEST(ExternalModel, AHangIsKilledWithItsProcessGroupAfterTheTimeout) {
   const auto t0 = std::chrono::steady_clock::now();
   const model::RunResult r = quick->run(theta(0.65));
   const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  EXPECT_EQ(r.status.code, StatusCode::kTimeout) << r.status.message;
-  EXPECT_NE(r.status.message.find("timed out after 1 s"), std::string::npos) << r.status.message;
+  expect_status(r.status, StatusCode::kTimeout, "timed out after 1 s");
   EXPECT_GE(elapsed, 1.0);
   EXPECT_LT(elapsed, 5.0);
   // The script's child (a sleep 60 in the same process group) is gone too.
@@ -267,18 +270,13 @@ TEST(ExternalModel, AHangIsKilledWithItsProcessGroupAfterTheTimeout) {
 
 TEST(ExternalModel, GarbageMissingAndNonFiniteOutputsAreBadOutput) {
   const auto dir = scratch_dir();
-  write_script(dir);
-  auto sim = make_simulator(write_config(dir));
+  auto sim = script_simulator(dir);
   const model::RunResult garbage = sim->run(theta(0.75));
-  EXPECT_EQ(garbage.status.code, StatusCode::kBadOutput);
-  EXPECT_NE(garbage.status.message.find("unreadable output"), std::string::npos) << garbage.status.message;
+  expect_status(garbage.status, StatusCode::kBadOutput, "unreadable output");
   const model::RunResult none = sim->run(theta(0.85));
-  EXPECT_EQ(none.status.code, StatusCode::kBadOutput);
-  EXPECT_NE(none.status.message.find("wrote no output file"), std::string::npos) << none.status.message;
+  expect_status(none.status, StatusCode::kBadOutput, "wrote no output file");
   const model::RunResult nan = sim->run(theta(0.95));
-  EXPECT_EQ(nan.status.code, StatusCode::kBadOutput);
-  EXPECT_NE(nan.status.message.find("'V_lv' is missing or not finite at t = 0.4 s"), std::string::npos)
-      << nan.status.message;
+  expect_status(nan.status, StatusCode::kBadOutput, "'V_lv' is missing or not finite at t = 0.4 s");
   const model::RunResult outside = sim->run(theta(0.0, 0.95));
   EXPECT_EQ(outside.status.code, StatusCode::kOutOfBounds);
 }
@@ -290,8 +288,7 @@ void expect_missing_column(const fs::path& dir, std::string text, const std::str
   text.replace(text.find(before), 0, "      - {name: " + name + ", unit: " + unit + "}\n");
   auto sim = make_simulator(write_file(dir / "m.yaml", text));
   const model::RunResult r = sim->run(theta(0.0));
-  EXPECT_EQ(r.status.code, StatusCode::kBadOutput);
-  EXPECT_NE(r.status.message.find("no column '" + name + "'"), std::string::npos) << r.status.message;
+  expect_status(r.status, StatusCode::kBadOutput, "no column '" + name + "'");
 }
 
 TEST(ExternalModel, AMissingChannelIsBadOutput) {
