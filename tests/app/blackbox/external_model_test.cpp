@@ -135,6 +135,20 @@ std::unique_ptr<model::Simulator> script_simulator(const fs::path& dir) {
   return make_simulator(write_config(dir));
 }
 
+// The config text of the external model around the sh + awk beat (write_awk_script), which reads
+// a YAML parameter file.
+std::string awk_config_text(const fs::path& dir) {
+  write_awk_script(dir);
+  return read_file(write_config(dir, "    parameter_format: yaml\n", "./beat.sh {params} {output}"));
+}
+
+// That model with a 1 s timeout (the hang and ensemble tests).
+std::unique_ptr<model::Simulator> quick_awk_simulator(const fs::path& dir) {
+  std::string text = awk_config_text(dir);
+  text.replace(text.find("timeout: 20 s"), 13, "timeout: 1 s");
+  return make_simulator(write_file(dir / "m.yaml", text));
+}
+
 Eigen::VectorXd theta(double fail, double ef = 0.6) {
   Eigen::VectorXd t(4);
   t << 1.4e-4, ef, 16000.0, fail;
@@ -242,11 +256,7 @@ TEST(ExternalModel, ACrashIsProcessFailedWithItsStderrAndTheKeptDirectory) {
 
 TEST(ExternalModel, AHangIsKilledWithItsProcessGroupAfterTheTimeout) {
   const auto dir = scratch_dir();
-  write_awk_script(dir);
-  std::string text = read_file(write_config(dir, "    parameter_format: yaml\n",
-                                            "./beat.sh {params} {output}"));
-  text.replace(text.find("timeout: 20 s"), 13, "timeout: 1 s");
-  auto quick = make_simulator(write_file(dir / "m.yaml", text));
+  auto quick = quick_awk_simulator(dir);
   const auto t0 = std::chrono::steady_clock::now();
   const model::RunResult r = quick->run(theta(0.65));
   const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -344,11 +354,7 @@ TEST(ExternalModel, HdfOutputIsReadWithItsUnits) {
 // Clones run concurrently in the ensemble's workers; each failure is its member's Status.
 TEST(ExternalModel, EnsembleMembersFailOneByOneOnTwoThreads) {
   const auto dir = scratch_dir();
-  write_awk_script(dir);
-  std::string text = read_file(write_config(dir, "    parameter_format: yaml\n",
-                                            "./beat.sh {params} {output}"));
-  text.replace(text.find("timeout: 20 s"), 13, "timeout: 1 s");
-  auto sim = make_simulator(write_file(dir / "m.yaml", text));
+  auto sim = quick_awk_simulator(dir);
   observers::GlobalIndicesOptions go;
   go.indices = {"EDV", "EF"};
   const observers::GlobalIndices observer(go, sim->channels());
@@ -425,9 +431,7 @@ TEST(ExternalCli, AnInsaneParameterTableIsRejectedAtTheEntry) {
 // failures recorded (policy impute-mean; docs/estimation.md s.8).
 TEST(ExternalCli, ASensitivityStudyRecordsTheFailedMembers) {
   const auto dir = scratch_dir();
-  write_awk_script(dir);
-  std::string text = read_file(write_config(dir, "    parameter_format: yaml\n",
-                                            "./beat.sh {params} {output}"));
+  std::string text = awk_config_text(dir);
   text.replace(text.find("nominal: 0.0, lower: 0.0, upper: 1.0"), 36, "nominal: 0.3, lower: 0.0, upper: 1.0");
   text += "sensitivity:\n"
           "  method: sobol\n"
