@@ -86,7 +86,7 @@ TEST(RegionalVentricle, OnePatchWithTheRampedInputReproducesTheRampedSphere) {
   RegionalOptions square, ramp;
   square.area_shares = ramp.area_shares = {1.0};
   ramp.numerics.activation_input = ramped;
-  const RegionalVentricle a(square), b(ramp);
+  RegionalVentricle a(square), b(ramp);
   const RunResult ra = a.run(a.parameters().nominal()), rb = b.run(b.parameters().nominal());
   ASSERT_TRUE(ra.status.ok() && rb.status.ok());
   EXPECT_GT(rel_diff(rb.trajectory.channel("P_lv"), ra.trajectory.channel("P_lv")), 1e-3);
