@@ -233,4 +233,13 @@ PeriodSource read_period(const model::OptionReader& numerics, const model::Param
   return out;
 }
 
+std::optional<model::RunResult> refuse_out_of_bounds(const model::ParameterSpace& parameters,
+                                                     const Eigen::Ref<const Eigen::VectorXd>& theta) {
+  const std::string bad = parameters.check(theta);
+  if (bad.empty()) return std::nullopt;
+  model::RunResult result;
+  result.status = model::Status::Error(model::StatusCode::kOutOfBounds, bad);
+  return result;
+}
+
 }  // namespace sigmaheart::app::blackbox
