@@ -302,7 +302,7 @@ std::string parameter_file_text(const model::ParameterSpace& parameters,
 
 ExternalSimulator::ExternalSimulator(std::shared_ptr<const ExternalOptions> options,
                                      model::ParameterSpace parameters)
-    : options_(std::move(options)), parameters_(std::move(parameters)), clone_id_(next_clone_id++) {}
+    : ExternalBase(std::move(options), std::move(parameters), next_clone_id++) {}
 
 model::RunResult ExternalSimulator::run(const Eigen::Ref<const Eigen::VectorXd>& theta) {
   if (auto refused = refuse_out_of_bounds(parameters_, theta)) return *refused;
@@ -376,7 +376,7 @@ model::RunResult ExternalSimulator::run(const Eigen::Ref<const Eigen::VectorXd>&
 
 ExternalSteppableSimulator::ExternalSteppableSimulator(std::shared_ptr<const ExternalOptions> options,
                                                        model::ParameterSpace parameters)
-    : options_(std::move(options)), parameters_(std::move(parameters)), clone_id_(next_clone_id++) {}
+    : ExternalBase(std::move(options), std::move(parameters), next_clone_id++) {}
 
 Status ExternalSteppableSimulator::step(const model::State* in, const Eigen::Ref<const Eigen::VectorXd>& theta,
                                         double t_end, model::State& out_state,
