@@ -148,14 +148,19 @@ std::vector<observers::ObservationEntry> read_entries(const ConfigNode& values, 
   return entries;
 }
 
+std::vector<std::string> names_of(const std::vector<observers::ObservationEntry>& entries) {
+  std::vector<std::string> names;
+  for (const auto& e : entries) names.push_back(e.name);
+  return names;
+}
+
 // Typed-in indices: `values: {EDV: {value: 142 mL, noise: 5 mL}}`.
 void parse_inline_observations(const ConfigNode& obs,
                                const std::vector<model::Channel>& sim_channels,
                                CalibrationProblem& out) {
   const ConfigNode values = obs["values"];
   const auto entries = read_entries(values, "index");
-  std::vector<std::string> names;
-  for (const auto& e : entries) names.push_back(e.name);
+  const std::vector<std::string> names = names_of(entries);
   try {
     out.observations = observers::observations_from_entries(entries);
   } catch (const std::invalid_argument& e) {
@@ -177,8 +182,7 @@ void parse_output_observations(const ConfigNode& obs, const std::vector<model::C
                                CalibrationProblem& out) {
   const ConfigNode values = obs["outputs"];
   const auto entries = read_entries(values, "model output");
-  std::vector<std::string> names;
-  for (const auto& e : entries) names.push_back(e.name);
+  const std::vector<std::string> names = names_of(entries);
   try {
     auto observer = std::make_unique<observers::OutputValues>(names, sim_channels);
     out.observations = observers::observations_from_entries(entries, observer->outputs());

@@ -368,7 +368,7 @@ void parse_filter(const ConfigNode& f, PersonalizeProblem& out) {
   o.ensemble.threads = f.optional<int>("threads", 0);
   if (o.ensemble.threads < 0) f["threads"].fail("expected an integer >= 0 (0: all cores)");
   if (const ConfigNode ns = f["noise_scale"]; ns.defined()) {
-    estimation::ChannelNoisePrior prior;
+    estimation::NoiseScalePrior prior;
     if (ns.is_scalar()) {
       ns.as_choice({"estimate"});
     } else {

@@ -49,9 +49,9 @@ fs::path bench_dir() {
   return dir;
 }
 
-// The whole member: directory, parameter file, spawn, wait, CSV, removal.
-void BM_ExternalMember(benchmark::State& state) {
-  const app::Config c = app::load_config(bench_dir() / "m.yaml", {}, bb::cli_models());
+// Runs the simulator of config `cfg` at its nominal parameters once per benchmark iteration.
+void run_nominal(benchmark::State& state, const fs::path& cfg) {
+  const app::Config c = app::load_config(cfg, {}, bb::cli_models());
   auto sim = c.simulator.make();
   const Eigen::VectorXd theta = sim->parameters().nominal();
   for (auto _ : state) {
@@ -59,6 +59,11 @@ void BM_ExternalMember(benchmark::State& state) {
     if (!r.status.ok()) state.SkipWithError(r.status.message.c_str());
     benchmark::DoNotOptimize(r.trajectory.values.data());
   }
+}
+
+// The whole member: directory, parameter file, spawn, wait, CSV, removal.
+void BM_ExternalMember(benchmark::State& state) {
+  run_nominal(state, bench_dir() / "m.yaml");
 }
 BENCHMARK(BM_ExternalMember)->Unit(benchmark::kMillisecond)->UseRealTime();
 
@@ -117,14 +122,7 @@ void BM_UmbridgeEvaluate(benchmark::State& state) {
                         "      - {name: c, unit: Pa, nominal: 1, lower: 0, upper: 2}\n"
                         "      - {name: d, unit: Pa, nominal: 1, lower: 0, upper: 2}\n"
                         "    channels:\n      - {name: V_lv, unit: m^3}\n      - {name: P_lv, unit: Pa}\n";
-  const app::Config c = app::load_config(cfg, {}, bb::cli_models());
-  auto sim = c.simulator.make();
-  const Eigen::VectorXd theta = sim->parameters().nominal();
-  for (auto _ : state) {
-    const auto r = sim->run(theta);
-    if (!r.status.ok()) state.SkipWithError(r.status.message.c_str());
-    benchmark::DoNotOptimize(r.trajectory.values.data());
-  }
+  run_nominal(state, cfg);
   server.stop();
 }
 BENCHMARK(BM_UmbridgeEvaluate)->Unit(benchmark::kMillisecond)->UseRealTime();

@@ -64,12 +64,8 @@ int main(int argc, char** argv) {
     return 3;
   }
   const auto geometry = EllipsoidGeometry::human();
-  EllipsoidMeshOptions mo;
-  mo.n_transmural = 4;
-  mo.n_longitudinal = 12;
-  mo.n_circumferential = 36;
-  mo.order = 2;
-  const Mesh mesh = ellipsoid_mesh(geometry, mo);
+  const Mesh mesh = ellipsoid_mesh(
+      geometry, {.n_transmural = 4, .n_longitudinal = 12, .n_circumferential = 36, .order = 2});
   const auto frames = ellipsoid_fibres(mesh, geometry, FibreOptions{}, 1);
   const AhaLabels aha = aha_labels(mesh);
   std::cout << "LV ellipsoid (endo 25/45 mm, epi 35/55 mm): " << mesh.n_vertices << " vertices, " << mesh.n_tets()

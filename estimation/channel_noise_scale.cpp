@@ -6,16 +6,6 @@
 
 namespace sigmaheart::estimation {
 
-std::string ChannelNoisePrior::validate() const {
-  if (!(shape > 0.0 && std::isfinite(shape))) return "noise scale prior: shape must be positive";
-  if (!(scale > 0.0 && std::isfinite(scale))) return "noise scale prior: scale must be positive";
-  return {};
-}
-
-Eigen::VectorXd ChannelNoiseScale::mode() const {
-  return scale.cwiseQuotient((shape.array() + 1.0).matrix());
-}
-
 namespace {
 // |r_c|^2 and n_c per channel.
 void channel_sums(const std::vector<int>& channel_of, int channels, const Eigen::Ref<const Eigen::VectorXd>& r,
@@ -34,17 +24,17 @@ void channel_sums(const std::vector<int>& channel_of, int channels, const Eigen:
 }
 }  // namespace
 
-ChannelNoiseScale channel_noise_posterior(const ChannelNoisePrior& prior, const std::vector<int>& channel_of,
-                                          int channels, const Eigen::Ref<const Eigen::VectorXd>& r) {
+NoiseScalePosterior channel_noise_posterior(const NoiseScalePrior& prior, const std::vector<int>& channel_of,
+                                            int channels, const Eigen::Ref<const Eigen::VectorXd>& r) {
   Eigen::VectorXd squares, counts;
   channel_sums(channel_of, channels, r, squares, counts);
-  ChannelNoiseScale out;
+  NoiseScalePosterior out;
   out.shape = (prior.shape + 0.5 * counts.array()).matrix();
   out.scale = (prior.scale + 0.5 * squares.array()).matrix();
   return out;
 }
 
-double channel_marginal_misfit(const ChannelNoisePrior& prior, const std::vector<int>& channel_of, int channels,
+double channel_marginal_misfit(const NoiseScalePrior& prior, const std::vector<int>& channel_of, int channels,
                                const Eigen::Ref<const Eigen::VectorXd>& r) {
   if (!r.allFinite()) return std::numeric_limits<double>::quiet_NaN();
   Eigen::VectorXd squares, counts;

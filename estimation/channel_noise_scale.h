@@ -15,39 +15,27 @@
 // less on the parameters and widens the posterior instead of dragging them (Kennedy & O'Hagan
 // 2001, J R Stat Soc B 63:425).
 //
-// The same conjugate model as the global calibration's per-channel scale (issue 45,
-// estimation/noise_scale.h on its branch); kept apart here until the two are merged.
+// The same conjugate model and types as the global calibration's per-channel scale
+// (estimation/noise_scale.h); here the channels are given by index (channel_of) rather than by
+// observation name, and the misfit is twice noise_scale.h's marginal_misfit.
 #pragma once
+
+#include "estimation/noise_scale.h"
 
 #include <Eigen/Core>
 
-#include <string>
 #include <vector>
 
 namespace sigmaheart::estimation {
 
-// InvGamma(shape, scale) prior on each channel's variance multiplier s^2 (1: the stated noise).
-// The defaults put the prior mode b0 / (a0 + 1) at 1 and the mean b0 / (a0 - 1) at 2.
-struct ChannelNoisePrior {
-  double shape = 3.0;  // a0 > 0
-  double scale = 4.0;  // b0 > 0
-  std::string validate() const;  // empty when valid
-};
-
-// Posterior of every channel's s_c^2 given the whitened residuals of its entries.
-struct ChannelNoiseScale {
-  Eigen::VectorXd shape, scale;   // a0 + n_c / 2 and b0 + |r_c|^2 / 2, per channel
-  Eigen::VectorXd weight() const { return shape.cwiseQuotient(scale); }  // E[1 / s_c^2]
-  Eigen::VectorXd mode() const;   // of s_c^2: scale / (shape + 1)
-};
-
 // channel_of: per entry of r, its channel in [0, channels). Channels without entries keep the prior.
-ChannelNoiseScale channel_noise_posterior(const ChannelNoisePrior& prior, const std::vector<int>& channel_of,
-                                          int channels, const Eigen::Ref<const Eigen::VectorXd>& r);
+// The posterior has no channel names.
+NoiseScalePosterior channel_noise_posterior(const NoiseScalePrior& prior, const std::vector<int>& channel_of,
+                                            int channels, const Eigen::Ref<const Eigen::VectorXd>& r);
 
 // sum_c (2 a0 + n_c) log(1 + |r_c|^2 / (2 b0)): twice the negative log of the marginal data term,
 // 0 at r = 0 and about (a0 + n_c / 2) / b0 |r_c|^2 for small r. NaN when r is not finite.
-double channel_marginal_misfit(const ChannelNoisePrior& prior, const std::vector<int>& channel_of,
+double channel_marginal_misfit(const NoiseScalePrior& prior, const std::vector<int>& channel_of,
                                int channels, const Eigen::Ref<const Eigen::VectorXd>& r);
 
 }  // namespace sigmaheart::estimation

@@ -395,12 +395,7 @@ std::string join(const std::vector<std::string>& v) {
 constexpr std::array<EnumName<FiniteDifference>, 2> kFiniteDifferenceNames{{
     {FiniteDifference::kForward, "forward"}, {FiniteDifference::kCentral, "central"},
 }};
-const char* to_string(FiniteDifference difference) {
-  return enum_to_string(kFiniteDifferenceNames, difference);
-}
-std::optional<FiniteDifference> parse_finite_difference(const std::string& text) {
-  return enum_from_string(kFiniteDifferenceNames, text);
-}
+SIGMAHEART_ENUM_TEXT(FiniteDifference, parse_finite_difference, kFiniteDifferenceNames)
 
 constexpr std::array<EnumName<LsqTermination>, 6> kLsqTerminationNames{{
     {LsqTermination::kConverged, "converged"}, {LsqTermination::kMaxIterations, "max iterations"},

@@ -70,10 +70,7 @@ constexpr std::array<EnumName<PropagationMethod>, 3> kMethodNames{{
     {PropagationMethod::kMonteCarlo, "monte-carlo"},
     {PropagationMethod::kPoint, "point"},
 }};
-const char* to_string(PropagationMethod method) { return enum_to_string(kMethodNames, method); }
-std::optional<PropagationMethod> parse_propagation_method(const std::string& text) {
-  return enum_from_string(kMethodNames, text);
-}
+SIGMAHEART_ENUM_TEXT(PropagationMethod, parse_propagation_method, kMethodNames)
 
 Eigen::VectorXd Posterior::theta(const Eigen::Ref<const Eigen::VectorXd>& eta) const {
   Eigen::VectorXd out(eta.size());

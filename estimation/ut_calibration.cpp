@@ -57,20 +57,12 @@ constexpr std::array<EnumName<UtMode>, 5> kUtModeNames{{
     {UtMode::kIterateInflate, "iterate-inflate"}, {UtMode::kMap, "map"},
     {UtMode::kMap, "iterate-map"},
 }};
-const char* to_string(UtMode mode) { return enum_to_string(kUtModeNames, mode); }
-std::optional<UtMode> parse_ut_mode(const std::string& text) {
-  return enum_from_string(kUtModeNames, text);
-}
+SIGMAHEART_ENUM_TEXT(UtMode, parse_ut_mode, kUtModeNames)
 
 constexpr std::array<EnumName<UtFailurePolicy>, 2> kUtFailurePolicyNames{{
     {UtFailurePolicy::kAbort, "abort"}, {UtFailurePolicy::kShrinkAndRetry, "shrink-and-retry"},
 }};
-const char* to_string(UtFailurePolicy policy) {
-  return enum_to_string(kUtFailurePolicyNames, policy);
-}
-std::optional<UtFailurePolicy> parse_ut_failure_policy(const std::string& text) {
-  return enum_from_string(kUtFailurePolicyNames, text);
-}
+SIGMAHEART_ENUM_TEXT(UtFailurePolicy, parse_ut_failure_policy, kUtFailurePolicyNames)
 
 constexpr std::array<EnumName<UtInnovation>, 3> kUtInnovationNames{{
     {UtInnovation::kAuto, "auto"}, {UtInnovation::kSigmaMean, "sigma-mean"},

@@ -13,8 +13,8 @@ ParameterSpace TimeShift::shifted_space(const ParameterSpace& inner) {
   return ParameterSpace(std::move(params));
 }
 
-TimeShift::TimeShift(std::unique_ptr<SteppableSimulator> inner) : inner_(std::move(inner)) {
-  if (!inner_) throw std::invalid_argument("TimeShift: no inner simulator");
+TimeShift::TimeShift(std::unique_ptr<SteppableSimulator> inner)
+    : WrappedSimulator(std::move(inner), "TimeShift") {
   space_ = shifted_space(inner_->parameters());
 }
 
@@ -22,12 +22,6 @@ RunResult TimeShift::run(const Eigen::Ref<const Eigen::VectorXd>& theta) {
   RunResult r = inner_->run(inner_theta(theta));
   r.trajectory.times.array() -= shift(theta);
   return r;
-}
-
-std::unique_ptr<Simulator> TimeShift::clone() const {
-  std::unique_ptr<SteppableSimulator> inner = into_steppable(inner_->clone());
-  if (!inner) throw std::logic_error("TimeShift: the inner clone is not steppable");
-  return std::make_unique<TimeShift>(std::move(inner));
 }
 
 State TimeShift::initial_state(const Eigen::Ref<const Eigen::VectorXd>& theta) {
@@ -46,12 +40,6 @@ Status TimeShift::advance(State& state, const Eigen::Ref<const Eigen::VectorXd>&
 Eigen::VectorXd TimeShift::sample(const State& state, const Eigen::Ref<const Eigen::VectorXd>& theta) const {
   const State inner{state.time > 0.0 ? state.time + shift(theta) : state.time, state.x};
   return inner_->sample(inner, inner_theta(theta));
-}
-
-std::unique_ptr<SteppableSimulator> TimeShift::with_time_step_factor(double factor) const {
-  std::unique_ptr<SteppableSimulator> finer = inner_->with_time_step_factor(factor);
-  if (!finer) return nullptr;
-  return std::make_unique<TimeShift>(std::move(finer));
 }
 
 }  // namespace sigmaheart::model

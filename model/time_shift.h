@@ -16,13 +16,13 @@
 // the data's clock. run() is the inner model's beat with its times moved by -t_shift.
 #pragma once
 
-#include "model/simulator.h"
+#include "model/wrapped_simulator.h"
 
 #include <memory>
 
 namespace sigmaheart::model {
 
-class TimeShift final : public SteppableSimulator {
+class TimeShift final : public WrappedSimulator {
  public:
   // Throws std::invalid_argument when inner is null or already has a parameter t_shift.
   explicit TimeShift(std::unique_ptr<SteppableSimulator> inner);
@@ -31,17 +31,10 @@ class TimeShift final : public SteppableSimulator {
   // inner's parameters, then t_shift [s] (nominal 0, bounds +-1 s).
   static ParameterSpace shifted_space(const ParameterSpace& inner);
 
-  std::string name() const override { return inner_->name(); }
-  const ParameterSpace& parameters() const override { return space_; }
-  std::vector<Channel> channels() const override { return inner_->channels(); }
   RunResult run(const Eigen::Ref<const Eigen::VectorXd>& theta) override;
-  std::unique_ptr<Simulator> clone() const override;
-
-  std::vector<Channel> state_layout() const override { return inner_->state_layout(); }
   State initial_state(const Eigen::Ref<const Eigen::VectorXd>& theta) override;
   Status advance(State& state, const Eigen::Ref<const Eigen::VectorXd>& theta, double t_end) override;
   Eigen::VectorXd sample(const State& state, const Eigen::Ref<const Eigen::VectorXd>& theta) const override;
-  std::unique_ptr<SteppableSimulator> with_time_step_factor(double factor) const override;
 
  private:
   Eigen::VectorXd inner_theta(const Eigen::Ref<const Eigen::VectorXd>& theta) const {
@@ -50,9 +43,9 @@ class TimeShift final : public SteppableSimulator {
   double shift(const Eigen::Ref<const Eigen::VectorXd>& theta) const {
     return theta.size() == space_.size() ? theta(space_.size() - 1) : 0.0;
   }
-
-  std::unique_ptr<SteppableSimulator> inner_;
-  ParameterSpace space_;
+  std::unique_ptr<SteppableSimulator> rewrap(std::unique_ptr<SteppableSimulator> inner) const override {
+    return std::make_unique<TimeShift>(std::move(inner));
+  }
 };
 
 }  // namespace sigmaheart::model

@@ -7,16 +7,6 @@
 
 namespace sigmaheart::model {
 
-namespace {
-
-std::unique_ptr<SteppableSimulator> as_steppable(std::unique_ptr<Simulator> s) {
-  std::unique_ptr<SteppableSimulator> steppable = into_steppable(std::move(s));
-  if (!steppable) throw std::logic_error("ZonedSimulator: the inner clone is not steppable");
-  return steppable;
-}
-
-}  // namespace
-
 ParameterSpace ZonedSimulator::zoned_space(const ParameterSpace& in, const std::vector<ParameterZone>& zones,
                                            std::vector<int>* source) {
   std::vector<int> zone_of(static_cast<size_t>(in.size()), -1);
@@ -72,8 +62,7 @@ ParameterSpace ZonedSimulator::zoned_space(const ParameterSpace& in, const std::
 }
 
 ZonedSimulator::ZonedSimulator(std::unique_ptr<SteppableSimulator> inner, std::vector<ParameterZone> zones)
-    : inner_(std::move(inner)), zones_(std::move(zones)) {
-  if (!inner_) throw std::invalid_argument("ZonedSimulator: no inner simulator");
+    : WrappedSimulator(std::move(inner), "ZonedSimulator"), zones_(std::move(zones)) {
   space_ = zoned_space(inner_->parameters(), zones_, &source_);
 }
 
@@ -98,10 +87,6 @@ RunResult ZonedSimulator::run(const Eigen::Ref<const Eigen::VectorXd>& theta) {
   return inner_->run(expand(theta));
 }
 
-std::unique_ptr<Simulator> ZonedSimulator::clone() const {
-  return std::make_unique<ZonedSimulator>(as_steppable(inner_->clone()), zones_);
-}
-
 State ZonedSimulator::initial_state(const Eigen::Ref<const Eigen::VectorXd>& theta) {
   return inner_->initial_state(expand(theta));
 }
@@ -116,12 +101,6 @@ Status ZonedSimulator::advance(State& state, const Eigen::Ref<const Eigen::Vecto
 
 Eigen::VectorXd ZonedSimulator::sample(const State& state, const Eigen::Ref<const Eigen::VectorXd>& theta) const {
   return inner_->sample(state, expand(theta));
-}
-
-std::unique_ptr<SteppableSimulator> ZonedSimulator::with_time_step_factor(double factor) const {
-  std::unique_ptr<SteppableSimulator> finer = inner_->with_time_step_factor(factor);
-  if (!finer) return nullptr;
-  return std::make_unique<ZonedSimulator>(std::move(finer), zones_);
 }
 
 }  // namespace sigmaheart::model

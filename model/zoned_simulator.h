@@ -9,7 +9,7 @@
 // parameter per zone, appended in the given order; every call expands theta and forwards.
 #pragma once
 
-#include "model/simulator.h"
+#include "model/wrapped_simulator.h"
 
 #include <memory>
 #include <string>
@@ -22,7 +22,7 @@ struct ParameterZone {
   std::vector<int> members;  // indices of the inner parameters it sets (same unit)
 };
 
-class ZonedSimulator final : public SteppableSimulator {
+class ZonedSimulator final : public WrappedSimulator {
  public:
   // Throws std::invalid_argument when a zone is empty, a member index is out of range or in two
   // zones, the members of a zone differ in unit, or a zone name is already a parameter name. The
@@ -38,24 +38,18 @@ class ZonedSimulator final : public SteppableSimulator {
   // The inner parameter vector of a zoned one (every member of a zone gets the zone's value).
   Eigen::VectorXd expand(const Eigen::Ref<const Eigen::VectorXd>& theta) const;
   const std::vector<ParameterZone>& zones() const { return zones_; }
-  const SteppableSimulator& inner() const { return *inner_; }
 
-  std::string name() const override { return inner_->name(); }
-  const ParameterSpace& parameters() const override { return space_; }
-  std::vector<Channel> channels() const override { return inner_->channels(); }
   RunResult run(const Eigen::Ref<const Eigen::VectorXd>& theta) override;
-  std::unique_ptr<Simulator> clone() const override;
-
-  std::vector<Channel> state_layout() const override { return inner_->state_layout(); }
   State initial_state(const Eigen::Ref<const Eigen::VectorXd>& theta) override;
   Status advance(State& state, const Eigen::Ref<const Eigen::VectorXd>& theta, double t_end) override;
   Eigen::VectorXd sample(const State& state, const Eigen::Ref<const Eigen::VectorXd>& theta) const override;
-  std::unique_ptr<SteppableSimulator> with_time_step_factor(double factor) const override;
 
  private:
-  std::unique_ptr<SteppableSimulator> inner_;
+  std::unique_ptr<SteppableSimulator> rewrap(std::unique_ptr<SteppableSimulator> inner) const override {
+    return std::make_unique<ZonedSimulator>(std::move(inner), zones_);
+  }
+
   std::vector<ParameterZone> zones_;
-  ParameterSpace space_;
   std::vector<int> source_;  // per inner parameter: its index in space_
 };
 

@@ -302,15 +302,11 @@ std::string parameter_file_text(const model::ParameterSpace& parameters,
 
 ExternalSimulator::ExternalSimulator(std::shared_ptr<const ExternalOptions> options,
                                      model::ParameterSpace parameters)
-    : options_(std::move(options)), parameters_(std::move(parameters)), clone_id_(next_clone_id++) {}
+    : ExternalBase(std::move(options), std::move(parameters), next_clone_id++) {}
 
 model::RunResult ExternalSimulator::run(const Eigen::Ref<const Eigen::VectorXd>& theta) {
+  if (auto refused = refuse_out_of_bounds(parameters_, theta)) return *refused;
   model::RunResult result;
-  const std::string bad = parameters_.check(theta);
-  if (!bad.empty()) {
-    result.status = Status::Error(StatusCode::kOutOfBounds, bad);
-    return result;
-  }
   const ExternalOptions& o = *options_;
   // A fresh member directory: pid, clone and run counter make the name unique in the workdir.
   std::error_code ec;
@@ -380,7 +376,7 @@ model::RunResult ExternalSimulator::run(const Eigen::Ref<const Eigen::VectorXd>&
 
 ExternalSteppableSimulator::ExternalSteppableSimulator(std::shared_ptr<const ExternalOptions> options,
                                                        model::ParameterSpace parameters)
-    : options_(std::move(options)), parameters_(std::move(parameters)), clone_id_(next_clone_id++) {}
+    : ExternalBase(std::move(options), std::move(parameters), next_clone_id++) {}
 
 Status ExternalSteppableSimulator::step(const model::State* in, const Eigen::Ref<const Eigen::VectorXd>& theta,
                                         double t_end, model::State& out_state,

@@ -75,37 +75,45 @@ struct ExternalOptions {
   int frames = 41;                    // samples of run()
 };
 
-class ExternalSimulator final : public model::Simulator {
+// What the one-shot and the steppable external simulators share (Contract: model::Simulator or
+// model::SteppableSimulator; Derived: the simulator itself): the options, the declared parameter
+// table, a clone id unique in this process (member directories carry it), and the name,
+// parameters, channels and clone() of the contract.
+template <class Derived, class Contract>
+class ExternalBase : public Contract {
+ public:
+  std::string name() const override { return "external"; }
+  const model::ParameterSpace& parameters() const override { return parameters_; }
+  std::vector<model::Channel> channels() const override { return options_->channels; }
+  std::unique_ptr<model::Simulator> clone() const override {
+    return std::make_unique<Derived>(options_, parameters_);
+  }
+
+ protected:
+  ExternalBase(std::shared_ptr<const ExternalOptions> options, model::ParameterSpace parameters, int clone_id)
+      : options_(std::move(options)), parameters_(std::move(parameters)), clone_id_(clone_id) {}
+
+  std::shared_ptr<const ExternalOptions> options_;
+  model::ParameterSpace parameters_;
+  int clone_id_;
+};
+
+class ExternalSimulator final : public ExternalBase<ExternalSimulator, model::Simulator> {
  public:
   ExternalSimulator(std::shared_ptr<const ExternalOptions> options, model::ParameterSpace parameters);
 
-  std::string name() const override { return "external"; }
-  const model::ParameterSpace& parameters() const override { return parameters_; }
-  std::vector<model::Channel> channels() const override { return options_->channels; }
   model::RunResult run(const Eigen::Ref<const Eigen::VectorXd>& theta) override;
-  std::unique_ptr<model::Simulator> clone() const override {
-    return std::make_unique<ExternalSimulator>(options_, parameters_);
-  }
 
  private:
-  std::shared_ptr<const ExternalOptions> options_;
-  model::ParameterSpace parameters_;
-  int clone_id_;     // unique in this process
-  long counter_ = 0; // runs of this clone
+  long counter_ = 0;  // runs of this clone
 };
 
 // The same program driven step by step (the steppable protocol above).
-class ExternalSteppableSimulator final : public model::SteppableSimulator {
+class ExternalSteppableSimulator final : public ExternalBase<ExternalSteppableSimulator, model::SteppableSimulator> {
  public:
   ExternalSteppableSimulator(std::shared_ptr<const ExternalOptions> options, model::ParameterSpace parameters);
 
-  std::string name() const override { return "external"; }
-  const model::ParameterSpace& parameters() const override { return parameters_; }
-  std::vector<model::Channel> channels() const override { return options_->channels; }
   model::RunResult run(const Eigen::Ref<const Eigen::VectorXd>& theta) override;
-  std::unique_ptr<model::Simulator> clone() const override {
-    return std::make_unique<ExternalSteppableSimulator>(options_, parameters_);
-  }
   std::vector<model::Channel> state_layout() const override { return options_->state; }
   // Throws std::runtime_error when the program fails (the contract has no Status here).
   model::State initial_state(const Eigen::Ref<const Eigen::VectorXd>& theta) override;
@@ -120,10 +128,7 @@ class ExternalSteppableSimulator final : public model::SteppableSimulator {
   model::Status step(const model::State* in, const Eigen::Ref<const Eigen::VectorXd>& theta, double t_end,
                      model::State& out_state, Eigen::VectorXd& out_channels) const;
 
-  std::shared_ptr<const ExternalOptions> options_;
-  model::ParameterSpace parameters_;
-  int clone_id_;
-  mutable long counter_ = 0;
+  mutable long counter_ = 0;  // program calls of this clone
 };
 
 // The `numerics:` of `model: external`, checked before any work: every error goes through the

@@ -72,6 +72,18 @@ DeclaredUnit declared(const std::string& unit) {
   return {unit, si ? si->factor : 1.0};
 }
 
+// The keys a parameter and a channel item share: doc (default `doc`), family (one of `families`
+// or empty) and segment (>= 0, 0: global).
+template <class Entry>
+void read_tags(const model::OptionReader& item, const char* doc, const std::vector<std::string>& families,
+               Entry& entry) {
+  entry.doc = item.text("doc", doc);
+  entry.family = item.text("family", "");
+  check_family(item, entry.family, families);
+  entry.segment = item.integer("segment", 0);
+  if (entry.segment < 0) item.fail("segment", "expected a segment >= 0 (0: global)");
+}
+
 std::string si_unit_of(const std::string& unit) {
   const auto si = model::units::to_si(unit);
   return si ? si->si_unit : unit;
@@ -152,11 +164,7 @@ model::ParameterSpace read_parameter_table(const model::OptionReader& numerics,
       item->fail("nominal", "nominal value outside [lower, upper] = [" + std::to_string(p.lower / d.factor) +
                                 ", " + std::to_string(p.upper / d.factor) + "] " + written);
     }
-    p.doc = item->text("doc", "parameter of the black-box model (declared in the config)");
-    p.family = item->text("family", "");
-    check_family(*item, p.family, model::parameter_families());
-    p.segment = item->integer("segment", 0);
-    if (p.segment < 0) item->fail("segment", "expected a segment >= 0 (0: global)");
+    read_tags(*item, "parameter of the black-box model (declared in the config)", model::parameter_families(), p);
     params.push_back(std::move(p));
   }
   return model::ParameterSpace(std::move(params));
@@ -188,11 +196,7 @@ std::vector<model::Channel> read_channel_table(const model::OptionReader& numeri
                          "mmHg, m^3/s, 1, ...)");
     }
     c.unit = si->si_unit;
-    c.doc = item->text("doc", "output channel of the black-box model");
-    c.family = item->text("family", "");
-    check_family(*item, c.family, model::channel_families());
-    c.segment = item->integer("segment", 0);
-    if (c.segment < 0) item->fail("segment", "expected a segment >= 0 (0: global)");
+    read_tags(*item, "output channel of the black-box model", model::channel_families(), c);
     channels.push_back(std::move(c));
   }
   return channels;
@@ -227,6 +231,15 @@ PeriodSource read_period(const model::OptionReader& numerics, const model::Param
   out.fixed = numerics.quantity("period", "s", 0.0);
   if (!(out.fixed > 0.0)) numerics.fail("period", "expected a period > 0 s or the name of a parameter");
   return out;
+}
+
+std::optional<model::RunResult> refuse_out_of_bounds(const model::ParameterSpace& parameters,
+                                                     const Eigen::Ref<const Eigen::VectorXd>& theta) {
+  const std::string bad = parameters.check(theta);
+  if (bad.empty()) return std::nullopt;
+  model::RunResult result;
+  result.status = model::Status::Error(model::StatusCode::kOutOfBounds, bad);
+  return result;
 }
 
 }  // namespace sigmaheart::app::blackbox

@@ -23,6 +23,7 @@
 
 #include <Eigen/Core>
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -72,5 +73,10 @@ struct PeriodSource {
 // one (family "period"), else none.
 PeriodSource read_period(const model::OptionReader& numerics, const model::ParameterSpace& parameters,
                          bool required);
+
+// How a black-box simulator refuses a theta outside its declared table: the run result with status
+// kOutOfBounds and the reason, or nullopt when theta is inside the bounds.
+std::optional<model::RunResult> refuse_out_of_bounds(const model::ParameterSpace& parameters,
+                                                     const Eigen::Ref<const Eigen::VectorXd>& theta);
 
 }  // namespace sigmaheart::app::blackbox

@@ -100,12 +100,8 @@ class UmbridgeSimulator final : public model::Simulator {
   }
 
   model::RunResult run(const Eigen::Ref<const Eigen::VectorXd>& theta) override {
+    if (auto refused = refuse_out_of_bounds(parameters_, theta)) return *refused;
     model::RunResult result;
-    const std::string bad = parameters_.check(theta);
-    if (!bad.empty()) {
-      result.status = Status::Error(StatusCode::kOutOfBounds, bad);
-      return result;
-    }
     const ClientOptions& o = *options_;
     json input = json::array();
     for (size_t v = 0; v < o.input_sizes.size(); ++v) input.push_back(json::array());

@@ -10,7 +10,9 @@
 #include <cmath>
 #include <ctime>
 #include <iomanip>
+#include <optional>
 #include <sstream>
+#include <type_traits>
 
 namespace sigmaheart::app::io {
 
@@ -32,24 +34,42 @@ namespace {
 const char* const kUnitsConvention =
     "curves and indices in clinical units (mL, mmHg, mL/s, mmHg/s, s); parameters "
     "in the SI unit of their model; each dataset's 'units' attribute names its unit";
+
+// Calls field(key, value) for every provenance field, in the order of the JSON summary; one list
+// for the JSON object and the HDF5 root attributes so that the two cannot drift apart. The value
+// is a std::string, an int, a std::vector<std::string> or the optional seed; end_utc is passed in
+// (the JSON writes the time now when it is not set yet).
+template <class Field>
+void for_each_provenance_field(const Provenance& p, const std::string& end_utc, Field&& field) {
+  field("sigmaheart_version", version());
+  field("git_describe", git_describe());
+  field("kind", p.kind);
+  field("name", p.name);
+  field("config_file", p.config_file);
+  field("config", p.config_text);
+  field("overrides", p.overrides);
+  field("command_line", p.command_line);
+  field("seed", p.seed);
+  field("start_utc", p.start_utc);
+  field("end_utc", end_utc);
+  field("threads", p.threads);
+  field("ranks", p.ranks);
+  field("units_convention", std::string(kUnitsConvention));
+}
+
+template <class T>
+constexpr bool kIsSeed = std::is_same_v<std::decay_t<T>, std::optional<std::uint64_t>>;
 }  // namespace
 
 nlohmann::ordered_json provenance_json(const Provenance& p) {
   nlohmann::ordered_json j;
-  j["sigmaheart_version"] = version();
-  j["git_describe"] = git_describe();
-  j["kind"] = p.kind;
-  j["name"] = p.name;
-  j["config_file"] = p.config_file;
-  j["config"] = p.config_text;
-  j["overrides"] = p.overrides;
-  j["command_line"] = p.command_line;
-  j["seed"] = p.seed ? nlohmann::ordered_json(*p.seed) : nlohmann::ordered_json(nullptr);
-  j["start_utc"] = p.start_utc;
-  j["end_utc"] = p.end_utc.empty() ? utc_now() : p.end_utc;
-  j["threads"] = p.threads;
-  j["ranks"] = p.ranks;
-  j["units_convention"] = kUnitsConvention;
+  for_each_provenance_field(p, p.end_utc.empty() ? utc_now() : p.end_utc, [&](const char* key, const auto& value) {
+    if constexpr (kIsSeed<decltype(value)>) {
+      j[key] = value ? nlohmann::ordered_json(*value) : nlohmann::ordered_json(nullptr);
+    } else {
+      j[key] = value;
+    }
+  });
   return j;
 }
 
@@ -61,20 +81,13 @@ std::string padded_number(long long value, long long largest) {
 }
 
 void write_provenance(Hdf5Writer& out, const Provenance& p) {
-  out.set_attribute("/", "sigmaheart_version", version());
-  out.set_attribute("/", "git_describe", git_describe());
-  out.set_attribute("/", "kind", p.kind);
-  out.set_attribute("/", "name", p.name);
-  out.set_attribute("/", "config", p.config_text);
-  out.set_attribute("/", "config_file", p.config_file);
-  out.set_attribute("/", "overrides", p.overrides);
-  out.set_attribute("/", "command_line", p.command_line);
-  if (p.seed) out.set_attribute("/", "seed", static_cast<std::int64_t>(*p.seed));
-  out.set_attribute("/", "start_utc", p.start_utc);
-  out.set_attribute("/", "end_utc", p.end_utc);
-  out.set_attribute("/", "threads", p.threads);
-  out.set_attribute("/", "ranks", p.ranks);
-  out.set_attribute("/", "units_convention", kUnitsConvention);
+  for_each_provenance_field(p, p.end_utc, [&](const char* key, const auto& value) {
+    if constexpr (kIsSeed<decltype(value)>) {
+      if (value) out.set_attribute("/", key, static_cast<std::int64_t>(*value));  // no attribute without one
+    } else {
+      out.set_attribute("/", key, value);
+    }
+  });
   out.write_text("/config", p.config_text);
   out.set_attribute("/config", "file", p.config_file);
 }

@@ -52,7 +52,7 @@ nlohmann::ordered_json provenance_json(const Provenance& p);
 // order as text (h5py and xarray list members alphabetically): padded_number(7, 12) = "07".
 std::string padded_number(long long value, long long largest);
 
-// Root attributes (sigmaheart_version, git_describe, kind, name, config, config_file, overrides,
+// Root attributes (sigmaheart_version, git_describe, kind, name, config_file, config, overrides,
 // command_line, seed if any, start_utc, end_utc, threads, ranks, units_convention) and the
 // /config text dataset.
 void write_provenance(Hdf5Writer& out, const Provenance& p);

@@ -22,20 +22,12 @@ constexpr std::array<EnumName<RoukfFailurePolicy>, 3> kRoukfFailurePolicyNames{{
     {RoukfFailurePolicy::kRetryThenSkip, "retry-then-skip"},
     {RoukfFailurePolicy::kSkipWithInflation, "skip"}, {RoukfFailurePolicy::kAbort, "abort"},
 }};
-const char* to_string(RoukfFailurePolicy policy) {
-  return enum_to_string(kRoukfFailurePolicyNames, policy);
-}
-std::optional<RoukfFailurePolicy> parse_roukf_failure_policy(const std::string& text) {
-  return enum_from_string(kRoukfFailurePolicyNames, text);
-}
+SIGMAHEART_ENUM_TEXT(RoukfFailurePolicy, parse_roukf_failure_policy, kRoukfFailurePolicyNames)
 
 constexpr std::array<EnumName<RoukfPassMode>, 2> kRoukfPassModeNames{{
     {RoukfPassMode::kRepeat, "repeat"}, {RoukfPassMode::kSplit, "split"},
 }};
-const char* to_string(RoukfPassMode mode) { return enum_to_string(kRoukfPassModeNames, mode); }
-std::optional<RoukfPassMode> parse_roukf_pass_mode(const std::string& text) {
-  return enum_from_string(kRoukfPassModeNames, text);
-}
+SIGMAHEART_ENUM_TEXT(RoukfPassMode, parse_roukf_pass_mode, kRoukfPassModeNames)
 
 constexpr std::array<EnumName<RoukfTermination>, 7> kRoukfTerminationNames{{
     {RoukfTermination::kCompleted, "completed"}, {RoukfTermination::kMemberFailed, "member failed"},
@@ -94,7 +86,7 @@ std::string RoukfOptions::validate() const {
   if (!(pass_growth > 0.0 && std::isfinite(pass_growth))) return "roukf: pass_growth must be positive";
   if (map_iterations < 0) return "roukf: map_iterations must be >= 0";
   if (noise_scale) {
-    if (const std::string e = noise_scale->validate(); !e.empty()) return "roukf: " + e;
+    if (const std::string e = noise_scale->validate(); !e.empty()) return "roukf: noise scale prior: " + e;
     if (pass_mode != RoukfPassMode::kSplit || map_iterations == 0) {
       return "roukf: an estimated noise scale needs split passes and the MAP refinement (map_iterations > 0)";
     }

@@ -149,7 +149,7 @@ struct RoukfOptions {
   // E[1 / s_c^2] at the current point, the Laplace covariance with those weights. A channel the
   // model cannot fit then widens the posterior instead of dragging the parameters. Needs kSplit and
   // map_iterations > 0. RoukfSummary::noise_scale_mode reports the scales.
-  std::optional<ChannelNoisePrior> noise_scale;
+  std::optional<NoiseScalePrior> noise_scale;
   // Full parameter vector for the parameters that are not estimated; empty: the nominal values.
   Eigen::VectorXd base_theta;
   // Initial model state; empty: simulator.initial_state(theta at the prior mean).

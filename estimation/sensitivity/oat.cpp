@@ -19,10 +19,7 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr std::array<EnumName<OatMode>, 2> kOatModeNames{{
     {OatMode::kRange, "range"}, {OatMode::kRelative, "relative"},
 }};
-const char* to_string(OatMode mode) { return enum_to_string(kOatModeNames, mode); }
-std::optional<OatMode> parse_oat_mode(const std::string& text) {
-  return enum_from_string(kOatModeNames, text);
-}
+SIGMAHEART_ENUM_TEXT(OatMode, parse_oat_mode, kOatModeNames)
 
 std::string OatOptions::validate() const {
   if (mode == OatMode::kRelative && !(relative_change > 0.0 && relative_change < 1.0)) {

@@ -78,12 +78,7 @@ constexpr std::array<EnumName<SobolFailurePolicy>, 3> kFailurePolicyNames{{
     {SobolFailurePolicy::kStop, "stop"}, {SobolFailurePolicy::kImputeMean, "impute-mean"},
     {SobolFailurePolicy::kImputeMean, "impute_mean"},
 }};
-const char* to_string(SobolFailurePolicy policy) {
-  return enum_to_string(kFailurePolicyNames, policy);
-}
-std::optional<SobolFailurePolicy> parse_sobol_failure_policy(const std::string& text) {
-  return enum_from_string(kFailurePolicyNames, text);
-}
+SIGMAHEART_ENUM_TEXT(SobolFailurePolicy, parse_sobol_failure_policy, kFailurePolicyNames)
 
 std::int64_t sobol_runs(int p, std::int64_t N, bool second_order) {
   return N * (second_order ? 2 * static_cast<std::int64_t>(p) + 2 : static_cast<std::int64_t>(p) + 2);

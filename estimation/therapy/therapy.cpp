@@ -15,8 +15,7 @@ namespace sigmaheart::estimation::therapy {
 namespace act = model::activation;
 
 constexpr std::array<EnumName<Mode>, 2> kModeNames{{{Mode::kBiventricular, "biv"}, {Mode::kLvOnly, "lv-only"}}};
-const char* to_string(Mode mode) { return enum_to_string(kModeNames, mode); }
-std::optional<Mode> parse_mode(const std::string& text) { return enum_from_string(kModeNames, text); }
+SIGMAHEART_ENUM_TEXT(Mode, parse_mode, kModeNames)
 
 const char* to_string(Termination t) {
   return t == Termination::kOk ? "ok" : t == Termination::kSomeFailed ? "some-therapies-failed" : "baseline-failed";

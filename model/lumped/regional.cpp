@@ -328,12 +328,7 @@ constexpr std::array<EnumName<ActivationPattern>, 4> kActivationPatternNames{{
     {ActivationPattern::kSynchronous, "synchronous"}, {ActivationPattern::kLbbb, "lbbb"},
     {ActivationPattern::kPacing, "pacing"}, {ActivationPattern::kExplicit, "explicit"},
 }};
-const char* to_string(ActivationPattern pattern) {
-  return enum_to_string(kActivationPatternNames, pattern);
-}
-std::optional<ActivationPattern> parse_activation_pattern(const std::string& text) {
-  return enum_from_string(kActivationPatternNames, text);
-}
+SIGMAHEART_ENUM_TEXT(ActivationPattern, parse_activation_pattern, kActivationPatternNames)
 
 int RegionalOptions::patches() const {
   return area_shares.empty() ? 17 : static_cast<int>(area_shares.size());

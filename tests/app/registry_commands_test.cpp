@@ -5,6 +5,7 @@
 #include "app/errors.h"
 #include "app/io/hdf5_writer.h"
 #include "tests/app/test_support.h"
+#include "tests/app/two_segment_config.h"
 #include "tests/model/simulator_contract.h"
 #include "tests/support/two_segment_model.h"
 
@@ -51,17 +52,12 @@ CliRun run_with_summary(const std::string& command, const std::filesystem::path&
   return run(args);
 }
 
-const char* kModel =
-    "simulator:\n"
-    "  model: test-two-segment\n"
-    "  numerics: {dt: 1 ms, output_every: 5}\n";
-
 // Hidden truth: segment 1 hypokinetic, segment 2 normal, a raised peripheral resistance.
 constexpr double kSigma1 = 3.5e4, kSigma2 = 6.0e4, kRd = 1.6e8;
 
 TEST(RegistryCommands, TheBuiltinRegistryDoesNotKnowTheTestModel) {
   const auto dir = scratch_dir();
-  const auto cfg = write_file(dir / "m.yaml", std::string("name: m\n") + kModel);
+  const auto cfg = write_file(dir / "m.yaml", std::string("name: m\n") + kTwoSegmentSimulator);
   std::ostringstream out, err;
   EXPECT_EQ(app::run_cli({"validate", cfg.string()}, out, err), app::kExitBadInput);
   EXPECT_NE(err.str().find("unknown value 'test-two-segment'"), std::string::npos) << err.str();
@@ -71,7 +67,7 @@ TEST(RegistryCommands, TheBuiltinRegistryDoesNotKnowTheTestModel) {
 
 TEST(RegistryCommands, ParamsShowsTheTagsOfEveryParameter) {
   const auto dir = scratch_dir();
-  const auto cfg = write_file(dir / "m.yaml", std::string("name: m\n") + kModel);
+  const auto cfg = write_file(dir / "m.yaml", std::string("name: m\n") + kTwoSegmentSimulator);
   const CliRun r = run({"params", cfg.string()});
   ASSERT_EQ(r.code, app::kExitOk) << r.err;
   EXPECT_NE(r.out.find("name       unit"), std::string::npos) << r.out;
@@ -93,7 +89,7 @@ TEST(RegistryCommands, ParamsShowsTheTagsOfEveryParameter) {
 
 TEST(RegistryCommands, CalibrateRecoversSegmentContractilitiesFromSynthesizedCurves) {
   const auto dir = scratch_dir();
-  const auto truth = write_file(dir / "truth.yaml", std::string("name: truth\n") + kModel);
+  const auto truth = write_file(dir / "truth.yaml", std::string("name: truth\n") + kTwoSegmentSimulator);
   const auto csv = dir / "obs.csv";
   const CliRun s = run({"--log-level", "off", "synthesize", truth.string(), "-o", csv.string(), "--frames", "30",
                         "--channels", "V_lv,P_lv,V_seg01,V_seg02", "--noise", "V_seg01=0.5 mL", "--noise",
@@ -101,7 +97,7 @@ TEST(RegistryCommands, CalibrateRecoversSegmentContractilitiesFromSynthesizedCur
                         "sigma0_01=" + std::to_string(kSigma1), "--set", "sigma0_02=" + std::to_string(kSigma2),
                         "--set", "R_d=" + std::to_string(kRd)});
   ASSERT_EQ(s.code, app::kExitOk) << s.err;
-  const auto cfg = write_file(dir / "cal.yaml", std::string("name: cal\n") + kModel + R"(observations:
+  const auto cfg = write_file(dir / "cal.yaml", std::string("name: cal\n") + kTwoSegmentSimulator + R"(observations:
   file: obs.csv
   curves: [V_seg01, V_seg02, P_lv]
   noise: {V_seg01: 0.5 mL, V_seg02: 0.5 mL, P_lv: 1 mmHg}
@@ -129,7 +125,7 @@ calibration: {mode: iterate-keep-spread, max_iterations: 15, tolerance: 1.0e-3}
 TEST(RegistryCommands, SobolStudyOfTheTestModelSeesTheSymmetryOfItsSegments) {
   const auto dir = scratch_dir();
   const auto cfg = write_file(dir / "sobol.yaml",
-                              std::string("name: sobol\n") + kModel +
+                              std::string("name: sobol\n") + kTwoSegmentSimulator +
                                   "sensitivity:\n"
                                   "  method: sobol\n"
                                   "  seed: 7\n"
@@ -161,25 +157,18 @@ TEST(RegistryCommands, SobolStudyOfTheTestModelSeesTheSymmetryOfItsSegments) {
 // and the period by the tag "period", with no change to app/ or estimation/ for this model.
 TEST(RegistryCommands, PersonalizeFindsTheSegmentsOfTheTestModelByTags) {
   const auto dir = scratch_dir();
-  const auto truth = write_file(dir / "truth.yaml", std::string("name: truth\n") + kModel);
+  const auto truth = write_file(dir / "truth.yaml", std::string("name: truth\n") + kTwoSegmentSimulator);
   const auto csv = dir / "regional.csv";
   const CliRun s = run({"--log-level", "off", "synthesize", truth.string(), "-o", csv.string(), "--frames", "30",
                         "--channels", "V_seg01,V_seg02", "--noise", "V_seg01=0.3 mL", "--noise", "V_seg02=0.3 mL",
                         "--seed", "4", "--set", "sigma0_01=" + std::to_string(kSigma1), "--set",
                         "sigma0_02=" + std::to_string(kSigma2)});
   ASSERT_EQ(s.code, app::kExitOk) << s.err;
-  const auto cfg = write_file(dir / "pers.yaml", std::string("name: pers\n") + kModel + R"(personalize:
-  observations:
-    file: regional.csv
-    channels: all
-    noise: 0.3 mL
-    start_beats: 20
-  estimate:
-    sigma0: {segments: all, prior: 5.0e4, spread: 50 %, transform: log}
+  const auto cfg = write_file(dir / "pers.yaml", two_segment_personalize("pers", R"(
   filter: {beats: 3, forgetting: 0.9, r_inflation: 2, threads: 2}
   truth:
     sigma0: [35 kPa, 60 kPa]
-)");
+)"));
   const CliRun r = run_with_summary("personalize", cfg, dir);
   ASSERT_EQ(r.code, app::kExitOk) << r.err << r.out;
   const auto j = read_json(dir / "r.json");

@@ -10,11 +10,11 @@ namespace sigmaheart::estimation {
 namespace {
 
 TEST(ChannelNoiseScale, PosteriorIsTheConjugateInverseGammaOfEachChannel) {
-  const ChannelNoisePrior prior;  // a0 = 3, b0 = 4
+  const NoiseScalePrior prior;  // a0 = 3, b0 = 4
   // Channel 0: residuals 1, 2 (|r|^2 = 5, n = 2); channel 1: 3 (9, 1); channel 2: none.
   const std::vector<int> of = {0, 1, 0};
   const Eigen::Vector3d r(1.0, 3.0, 2.0);
-  const ChannelNoiseScale post = channel_noise_posterior(prior, of, 3, r);
+  const NoiseScalePosterior post = channel_noise_posterior(prior, of, 3, r);
   EXPECT_DOUBLE_EQ(post.shape(0), 3.0 + 1.0);
   EXPECT_DOUBLE_EQ(post.scale(0), 4.0 + 2.5);
   EXPECT_DOUBLE_EQ(post.shape(1), 3.5);
@@ -27,7 +27,7 @@ TEST(ChannelNoiseScale, PosteriorIsTheConjugateInverseGammaOfEachChannel) {
 }
 
 TEST(ChannelNoiseScale, MarginalMisfitHasTheWeightedGaussianGradient) {
-  const ChannelNoisePrior prior{2.5, 3.0};
+  const NoiseScalePrior prior{2.5, 3.0};
   const std::vector<int> of = {0, 0, 1, 1, 1};
   Eigen::VectorXd r(5);
   r << 0.3, -1.2, 2.0, 0.7, -0.4;
@@ -52,9 +52,9 @@ TEST(ChannelNoiseScale, MarginalMisfitHasTheWeightedGaussianGradient) {
 }
 
 TEST(ChannelNoiseScale, BadPriorsAreNamed) {
-  EXPECT_NE(ChannelNoisePrior({0.0, 1.0}).validate().find("shape"), std::string::npos);
-  EXPECT_NE(ChannelNoisePrior({1.0, -1.0}).validate().find("scale"), std::string::npos);
-  EXPECT_TRUE(ChannelNoisePrior{}.validate().empty());
+  EXPECT_NE(NoiseScalePrior({0.0, 1.0}).validate().find("shape"), std::string::npos);
+  EXPECT_NE(NoiseScalePrior({1.0, -1.0}).validate().find("scale"), std::string::npos);
+  EXPECT_TRUE(NoiseScalePrior{}.validate().empty());
 }
 
 }  // namespace

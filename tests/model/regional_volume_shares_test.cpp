@@ -24,6 +24,13 @@ std::unique_ptr<SteppableSimulator> five_patches(lumped::ActivationPattern patte
 
 Eigen::VectorXd other_shares() { return (Eigen::VectorXd(5) << 0.4, 0.3, 0.2, 0.1, 0.0).finished(); }
 
+// The simulator of the contract tests below: five delayed patches reporting other_shares().
+std::unique_ptr<Simulator> five_delayed_patches_other_shares() {
+  auto inner = five_patches(lumped::ActivationPattern::kExplicit);
+  const Eigen::VectorXd s = RegionalVolumeShares::reference_shares(*inner, inner->parameters().nominal());
+  return std::make_unique<RegionalVolumeShares>(std::move(inner), other_shares(), s);
+}
+
 TEST(RegionalVolumeShares, TheReferenceSharesChangeNothing) {
   auto inner = five_patches(lumped::ActivationPattern::kExplicit);
   const Eigen::VectorXd theta = inner->parameters().nominal();
@@ -88,17 +95,10 @@ TEST(RegionalVolumeShares, BadSharesAreRefused) {
 namespace sigmaheart::testing {
 namespace {
 
-INSTANTIATE_TEST_SUITE_P(
-    RegionalVolumeShares, SimulatorContract,
-    ::testing::Values(ContractCase{"five_delayed_patches_other_shares",
-                                   [] {
-                                     auto inner = model::five_patches(model::lumped::ActivationPattern::kExplicit);
-                                     const Eigen::VectorXd s = model::RegionalVolumeShares::reference_shares(
-                                         *inner, inner->parameters().nominal());
-                                     return std::make_unique<model::RegionalVolumeShares>(std::move(inner),
-                                                                                          model::other_shares(), s);
-                                   }}),
-    [](const ::testing::TestParamInfo<ContractCase>& param_info) { return param_info.param.name; });
+INSTANTIATE_TEST_SUITE_P(RegionalVolumeShares, SimulatorContract,
+                         ::testing::Values(ContractCase{"five_delayed_patches_other_shares",
+                                                        model::five_delayed_patches_other_shares}),
+                         contract_case_name);
 
 }  // namespace
 }  // namespace sigmaheart::testing

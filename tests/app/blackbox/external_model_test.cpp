@@ -17,6 +17,7 @@
 #include "observers/global_indices.h"
 #include "tests/app/test_support.h"
 #include "tests/model/simulator_contract.h"
+#include "tests/support/expect_status.h"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -128,6 +129,26 @@ std::unique_ptr<model::Simulator> make_simulator(const fs::path& config) {
   return c.simulator.make();
 }
 
+// The external model of write_config(dir) around the Python beat script (write_script).
+std::unique_ptr<model::Simulator> script_simulator(const fs::path& dir) {
+  write_script(dir);
+  return make_simulator(write_config(dir));
+}
+
+// The config text of the external model around the sh + awk beat (write_awk_script), which reads
+// a YAML parameter file.
+std::string awk_config_text(const fs::path& dir) {
+  write_awk_script(dir);
+  return read_file(write_config(dir, "    parameter_format: yaml\n", "./beat.sh {params} {output}"));
+}
+
+// That model with a 1 s timeout (the hang and ensemble tests).
+std::unique_ptr<model::Simulator> quick_awk_simulator(const fs::path& dir) {
+  std::string text = awk_config_text(dir);
+  text.replace(text.find("timeout: 20 s"), 13, "timeout: 1 s");
+  return make_simulator(write_file(dir / "m.yaml", text));
+}
+
 Eigen::VectorXd theta(double fail, double ef = 0.6) {
   Eigen::VectorXd t(4);
   t << 1.4e-4, ef, 16000.0, fail;
@@ -192,8 +213,7 @@ TEST(Process, TailLinesKeepsTheLastLines) {
 // (python3 and C++ call the same libm; the CSV carries shortest round-trip text).
 TEST(ExternalModel, ProgramGivesTheInProcessNumbers) {
   const auto dir = scratch_dir();
-  write_script(dir);
-  auto sim = make_simulator(write_config(dir));
+  auto sim = script_simulator(dir);
   EXPECT_EQ(sim->name(), "external");
   ASSERT_EQ(sim->parameters().size(), 4);
   const Eigen::VectorXd th = theta(0.0, 0.55);
@@ -218,11 +238,9 @@ TEST(ExternalModel, ProgramGivesTheInProcessNumbers) {
 
 TEST(ExternalModel, ACrashIsProcessFailedWithItsStderrAndTheKeptDirectory) {
   const auto dir = scratch_dir();
-  write_script(dir);
-  auto sim = make_simulator(write_config(dir));
+  auto sim = script_simulator(dir);
   const model::RunResult r = sim->run(theta(0.55));
-  EXPECT_EQ(r.status.code, StatusCode::kProcessFailed);
-  EXPECT_NE(r.status.message.find("exit code 3"), std::string::npos) << r.status.message;
+  expect_status(r.status, StatusCode::kProcessFailed, "exit code 3");
   EXPECT_NE(r.status.message.find("model exploded at t = 0.3 s"), std::string::npos) << r.status.message;
   EXPECT_NE(r.status.message.find((dir / "runs").string()), std::string::npos) << r.status.message;
   // Kept for inspection, with the parameter file the program was given.
@@ -238,16 +256,11 @@ TEST(ExternalModel, ACrashIsProcessFailedWithItsStderrAndTheKeptDirectory) {
 
 TEST(ExternalModel, AHangIsKilledWithItsProcessGroupAfterTheTimeout) {
   const auto dir = scratch_dir();
-  write_awk_script(dir);
-  std::string text = read_file(write_config(dir, "    parameter_format: yaml\n",
-                                            "./beat.sh {params} {output}"));
-  text.replace(text.find("timeout: 20 s"), 13, "timeout: 1 s");
-  auto quick = make_simulator(write_file(dir / "m.yaml", text));
+  auto quick = quick_awk_simulator(dir);
   const auto t0 = std::chrono::steady_clock::now();
   const model::RunResult r = quick->run(theta(0.65));
   const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  EXPECT_EQ(r.status.code, StatusCode::kTimeout) << r.status.message;
-  EXPECT_NE(r.status.message.find("timed out after 1 s"), std::string::npos) << r.status.message;
+  expect_status(r.status, StatusCode::kTimeout, "timed out after 1 s");
   EXPECT_GE(elapsed, 1.0);
   EXPECT_LT(elapsed, 5.0);
   // The script's child (a sleep 60 in the same process group) is gone too.
@@ -267,18 +280,13 @@ TEST(ExternalModel, AHangIsKilledWithItsProcessGroupAfterTheTimeout) {
 
 TEST(ExternalModel, GarbageMissingAndNonFiniteOutputsAreBadOutput) {
   const auto dir = scratch_dir();
-  write_script(dir);
-  auto sim = make_simulator(write_config(dir));
+  auto sim = script_simulator(dir);
   const model::RunResult garbage = sim->run(theta(0.75));
-  EXPECT_EQ(garbage.status.code, StatusCode::kBadOutput);
-  EXPECT_NE(garbage.status.message.find("unreadable output"), std::string::npos) << garbage.status.message;
+  expect_status(garbage.status, StatusCode::kBadOutput, "unreadable output");
   const model::RunResult none = sim->run(theta(0.85));
-  EXPECT_EQ(none.status.code, StatusCode::kBadOutput);
-  EXPECT_NE(none.status.message.find("wrote no output file"), std::string::npos) << none.status.message;
+  expect_status(none.status, StatusCode::kBadOutput, "wrote no output file");
   const model::RunResult nan = sim->run(theta(0.95));
-  EXPECT_EQ(nan.status.code, StatusCode::kBadOutput);
-  EXPECT_NE(nan.status.message.find("'V_lv' is missing or not finite at t = 0.4 s"), std::string::npos)
-      << nan.status.message;
+  expect_status(nan.status, StatusCode::kBadOutput, "'V_lv' is missing or not finite at t = 0.4 s");
   const model::RunResult outside = sim->run(theta(0.0, 0.95));
   EXPECT_EQ(outside.status.code, StatusCode::kOutOfBounds);
 }
@@ -290,8 +298,7 @@ void expect_missing_column(const fs::path& dir, std::string text, const std::str
   text.replace(text.find(before), 0, "      - {name: " + name + ", unit: " + unit + "}\n");
   auto sim = make_simulator(write_file(dir / "m.yaml", text));
   const model::RunResult r = sim->run(theta(0.0));
-  EXPECT_EQ(r.status.code, StatusCode::kBadOutput);
-  EXPECT_NE(r.status.message.find("no column '" + name + "'"), std::string::npos) << r.status.message;
+  expect_status(r.status, StatusCode::kBadOutput, "no column '" + name + "'");
 }
 
 TEST(ExternalModel, AMissingChannelIsBadOutput) {
@@ -347,11 +354,7 @@ TEST(ExternalModel, HdfOutputIsReadWithItsUnits) {
 // Clones run concurrently in the ensemble's workers; each failure is its member's Status.
 TEST(ExternalModel, EnsembleMembersFailOneByOneOnTwoThreads) {
   const auto dir = scratch_dir();
-  write_awk_script(dir);
-  std::string text = read_file(write_config(dir, "    parameter_format: yaml\n",
-                                            "./beat.sh {params} {output}"));
-  text.replace(text.find("timeout: 20 s"), 13, "timeout: 1 s");
-  auto sim = make_simulator(write_file(dir / "m.yaml", text));
+  auto sim = quick_awk_simulator(dir);
   observers::GlobalIndicesOptions go;
   go.indices = {"EDV", "EF"};
   const observers::GlobalIndices observer(go, sim->channels());
@@ -428,9 +431,7 @@ TEST(ExternalCli, AnInsaneParameterTableIsRejectedAtTheEntry) {
 // failures recorded (policy impute-mean; docs/estimation.md s.8).
 TEST(ExternalCli, ASensitivityStudyRecordsTheFailedMembers) {
   const auto dir = scratch_dir();
-  write_awk_script(dir);
-  std::string text = read_file(write_config(dir, "    parameter_format: yaml\n",
-                                            "./beat.sh {params} {output}"));
+  std::string text = awk_config_text(dir);
   text.replace(text.find("nominal: 0.0, lower: 0.0, upper: 1.0"), 36, "nominal: 0.3, lower: 0.0, upper: 1.0");
   text += "sensitivity:\n"
           "  method: sobol\n"

@@ -104,6 +104,16 @@ fs::path client_config(const fs::path& dir, const std::string& url, int frames =
 }
 
 // ---------------------------------------------------------------------------------------------
+// Posts `body` to `path` and expects an UM-Bridge error reply: HTTP `status` and error `type`.
+json post_error(const Served& s, const std::string& path, const std::string& body, int status,
+                const std::string& type) {
+  int got = 0;
+  json r = post(s, path, body, got);
+  EXPECT_EQ(got, status) << path << " " << body;
+  EXPECT_EQ(r["error"]["type"], type) << r.dump();
+  return r;
+}
+
 TEST(UmbridgeServer, AnswersInfoSizesAndModelInfo) {
   const Served s = serve_stand_in();
   httplib::Client c(s.url());
@@ -146,35 +156,24 @@ TEST(UmbridgeServer, EvaluateReturnsTheSampledCurves) {
 
 TEST(UmbridgeServer, ErrorsAreUmbridgeErrorReplies) {
   const Served s = serve_stand_in();
-  int status = 0;
-  json r = post(s, "/Evaluate", R"({"name": "forward", "input": [[1.4e-4, 0.6, 16000]], "config": {}})", status);
-  EXPECT_EQ(status, 400);
-  EXPECT_EQ(r["error"]["type"], "InvalidInput");
+  json r = post_error(s, "/Evaluate", R"({"name": "forward", "input": [[1.4e-4, 0.6, 16000]], "config": {}})",
+                      400, "InvalidInput");
   EXPECT_NE(r["error"]["message"].get<std::string>().find("has 3 entries; expected 4"), std::string::npos);
-  r = post(s, "/Evaluate", R"({"name": "backward", "input": [[1, 2, 3, 4]]})", status);
-  EXPECT_EQ(status, 400);
-  EXPECT_EQ(r["error"]["type"], "ModelNotFound");
-  r = post(s, "/Evaluate", R"({"name": "forward", "input": [[1, 2)", status);
-  EXPECT_EQ(status, 400);
-  EXPECT_EQ(r["error"]["type"], "InvalidInput");
+  r = post_error(s, "/Evaluate", R"({"name": "backward", "input": [[1, 2, 3, 4]]})", 400, "ModelNotFound");
+  r = post_error(s, "/Evaluate", R"({"name": "forward", "input": [[1, 2)", 400, "InvalidInput");
   // A raw NaN (not JSON): the message says so.
-  r = post(s, "/Evaluate", R"({"name": "forward", "input": [[NaN, 0.6, 16000, 0]]})", status);
-  EXPECT_EQ(status, 400);
-  EXPECT_EQ(r["error"]["type"], "InvalidInput");
+  r = post_error(s, "/Evaluate", R"({"name": "forward", "input": [[NaN, 0.6, 16000, 0]]})",
+                 400, "InvalidInput");
   EXPECT_NE(r["error"]["message"].get<std::string>().find("'NaN', which JSON cannot carry"), std::string::npos)
       << r.dump();
-  r = post(s, "/Gradient", R"({"name": "forward"})", status);
-  EXPECT_EQ(status, 400);
-  EXPECT_EQ(r["error"]["type"], "UnsupportedFeature");
+  r = post_error(s, "/Gradient", R"({"name": "forward"})", 400, "UnsupportedFeature");
   // Outside the parameter bounds: the client's mistake.
-  r = post(s, "/Evaluate", R"({"name": "forward", "input": [[1.4e-4, 0.99, 16000, 0]]})", status);
-  EXPECT_EQ(status, 400);
-  EXPECT_EQ(r["error"]["type"], "InvalidInput");
+  r = post_error(s, "/Evaluate", R"({"name": "forward", "input": [[1.4e-4, 0.99, 16000, 0]]})",
+                 400, "InvalidInput");
   EXPECT_NE(r["error"]["message"].get<std::string>().find("EF"), std::string::npos);
   // A failed run: the model's status travels in the message.
-  r = post(s, "/Evaluate", R"({"name": "forward", "input": [[1.4e-4, 0.6, 16000, 1]]})", status);
-  EXPECT_EQ(status, 500);
-  EXPECT_EQ(r["error"]["type"], "InvalidOutput");
+  r = post_error(s, "/Evaluate", R"({"name": "forward", "input": [[1.4e-4, 0.6, 16000, 1]]})",
+                 500, "InvalidOutput");
   EXPECT_EQ(r["error"]["message"], "diverged: Newton diverged at t = 0.3 s");
 }
 

@@ -83,14 +83,22 @@ std::string config_with(const std::string& estimate, const std::string& filter =
          "\n  filter: {" + filter + "}\n";
 }
 
+// personalize on `config` (written to dir/bad.yaml) is bad input: exit 2, a message that names
+// `where` (e.g. "bad.yaml:11:28") and says `what`, and no results file.
+void expect_bad_input(const std::filesystem::path& dir, const std::string& config, const std::string& where,
+                      const std::string& what) {
+  const auto cfg = write_file(dir / "bad.yaml", config);
+  const CliRun r = cli({"personalize", cfg.string(), "-o", (dir / "x.h5").string()});
+  EXPECT_EQ(r.code, 2) << config;
+  EXPECT_NE(r.err.find(where), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find(what), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "x.h5"));
+}
+
 TEST(PersonalizeCommand, ASegmentOutsideTheSeventeenIsReportedAtItsLineAndColumn) {
   const auto dir = scratch_dir();
-  const auto cfg = write_file(dir / "bad.yaml", config_with("sigma0: {segments: [1, 18], spread: 50 %}"));
-  const CliRun r = cli({"personalize", cfg.string(), "-o", (dir / "x.h5").string()});
-  EXPECT_EQ(r.code, 2);
-  EXPECT_NE(r.err.find("bad.yaml:11:28"), std::string::npos) << r.err;
-  EXPECT_NE(r.err.find("segment 18 outside 1..17"), std::string::npos) << r.err;
-  EXPECT_FALSE(std::filesystem::exists(dir / "x.h5"));
+  expect_bad_input(dir, config_with("sigma0: {segments: [1, 18], spread: 50 %}"), "bad.yaml:11:28",
+                   "segment 18 outside 1..17");
 }
 
 // The split-pass keys of filter: (docs/estimation.md s.4.2) are checked where they stand.
@@ -105,12 +113,7 @@ TEST(PersonalizeCommand, BadSplitPassSettingsAreReportedAtTheirLineAndColumn) {
         {"tempering: -0.5", "expected a number >= 0"},
         {"map_iterations: -1", "expected an integer >= 0"},
         {"map_tolerance: 0", "expected a positive number of posterior standard deviations"}}) {
-    const auto cfg = write_file(dir / "bad.yaml", config_with(estimate, filter));
-    const CliRun r = cli({"personalize", cfg.string(), "-o", (dir / "x.h5").string()});
-    EXPECT_EQ(r.code, 2) << filter;
-    EXPECT_NE(r.err.find("bad.yaml:12:"), std::string::npos) << filter << ": " << r.err;
-    EXPECT_NE(r.err.find(what), std::string::npos) << filter << ": " << r.err;
-    EXPECT_FALSE(std::filesystem::exists(dir / "x.h5"));
+    expect_bad_input(dir, config_with(estimate, filter), "bad.yaml:12:", what);
   }
 }
 
@@ -185,12 +188,7 @@ TEST(PersonalizeCommand, BadZonesAreReportedAtTheirLineAndColumn) {
         {"sigma0: {segments: all, zones: {a: [1]}}", "either segments: or zones:"},
         {"R_p: {zones: {a: [1]}}", "not a per-segment parameter family"},
         {"sigma0: {zones: [1, 2]}", "expected a map of zone name"}}) {
-    const auto cfg = write_file(dir / "bad.yaml", config_with(estimate));
-    const CliRun r = cli({"personalize", cfg.string(), "-o", (dir / "x.h5").string()});
-    EXPECT_EQ(r.code, 2) << estimate;
-    EXPECT_NE(r.err.find("bad.yaml:11:"), std::string::npos) << estimate << ": " << r.err;
-    EXPECT_NE(r.err.find(what), std::string::npos) << estimate << ": " << r.err;
-    EXPECT_FALSE(std::filesystem::exists(dir / "x.h5"));
+    expect_bad_input(dir, config_with(estimate), "bad.yaml:11:", what);
   }
 }
 

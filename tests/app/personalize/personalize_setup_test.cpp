@@ -180,6 +180,19 @@ TEST(PersonalizeSetup, AnActivationMapSetsTheActivationTimesAndBadInputIsLocated
   }
 }
 
+// validate on the five-patch personalize config of `twin` that starts from the results file
+// `start` is bad input located at the start's file: (start.yaml:16) and says `what`.
+void expect_start_refused(const std::filesystem::path& dir, const std::filesystem::path& twin,
+                          const std::filesystem::path& start, const std::string& what) {
+  const auto cfg = write_file(dir / "start.yaml", "name: s\n" + five_patch_simulator() +
+                                                      personalize_section(twin, "", kSigma0) +
+                                                      "  start: {file: " + start.string() + "}\n");
+  const CliRun r = cli({"validate", cfg.string()});
+  EXPECT_EQ(r.code, 2) << start;
+  EXPECT_NE(r.err.find("start.yaml:16:"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find(what), std::string::npos) << r.err;
+}
+
 // A calibrate result of the sphere starts the regional filter: its posterior is the prior of the
 // globals it estimated (co-estimated) and its contractility centres the segments'; held, the
 // globals take its estimate. A results file of another kind, or of parameters the model lacks, is
@@ -236,13 +249,7 @@ TEST(PersonalizeSetup, ACalibrateResultStartsTheGlobalsAndAMismatchIsLocated) {
     }
   }
   // Another kind of results file; a calibration of parameters the model does not have.
-  const auto other = write_file(dir / "other.yaml", "name: o\n" + five_patch_simulator() +
-                                                        personalize_section(twin, "", kSigma0) +
-                                                        "  start: {file: " + (dir / "start-hold.h5").string() + "}\n");
-  const CliRun r1 = cli({"validate", other.string()});
-  EXPECT_EQ(r1.code, 2);
-  EXPECT_NE(r1.err.find("other.yaml:16:"), std::string::npos) << r1.err;
-  EXPECT_NE(r1.err.find("is not a calibrate result"), std::string::npos) << r1.err;
+  expect_start_refused(dir, twin, dir / "start-hold.h5", "is not a calibrate result");
   {  // A calibrate result of the sphere with an atrial chamber: E_at_min is no parameter here.
     io::Hdf5Writer w(dir / "atrium.h5");
     w.set_attribute("/", "kind", "calibrate");
@@ -254,13 +261,8 @@ TEST(PersonalizeSetup, ACalibrateResultStartsTheGlobalsAndAMismatchIsLocated) {
     w.write_matrix("/estimate/eta_covariance", Eigen::Matrix2d::Identity() * 0.01, "1", {}, {});
     w.commit();
   }
-  const auto atrium = write_file(dir / "atrium.yaml", "name: a\n" + five_patch_simulator() +
-                                                          personalize_section(twin, "", kSigma0) +
-                                                          "  start: {file: " + (dir / "atrium.h5").string() + "}\n");
-  const CliRun r2 = cli({"validate", atrium.string()});
-  EXPECT_EQ(r2.code, 2);
-  EXPECT_NE(r2.err.find("atrium.yaml:16:"), std::string::npos) << r2.err;
-  EXPECT_NE(r2.err.find("estimates E_at_min, which model lumped-regional does not have"), std::string::npos) << r2.err;
+  expect_start_refused(dir, twin, dir / "atrium.h5",
+                       "estimates E_at_min, which model lumped-regional does not have");
   (void)cal_eta;
 }
 

@@ -7,6 +7,7 @@
 #include "app/io/hdf5_writer.h"
 #include "app/io/observation_file.h"
 #include "tests/app/test_support.h"
+#include "tests/app/two_segment_config.h"
 #include "tests/support/two_segment_model.h"
 
 #include <gtest/gtest.h>
@@ -73,11 +74,6 @@ void expect_provenance(const std::filesystem::path& dir, const std::string& kind
     EXPECT_TRUE(p["seed"].is_null());
   }
 }
-
-const char* kTwoSegment =
-    "simulator:\n"
-    "  model: test-two-segment\n"
-    "  numerics: {dt: 1 ms, output_every: 5}\n";
 
 TEST(JsonProvenance, SimulateSummaryCarriesTheProvenance) {
   const auto dir = scratch_dir();
@@ -147,23 +143,14 @@ TEST(JsonProvenance, CalibrateSummaryCarriesTheProvenance) {
 
 TEST(JsonProvenance, PersonalizeSummaryCarriesTheProvenance) {
   const auto dir = scratch_dir();
-  const auto truth = write_file(dir / "truth.yaml", std::string("name: truth\n") + kTwoSegment);
+  const auto truth = write_file(dir / "truth.yaml", std::string("name: truth\n") + kTwoSegmentSimulator);
   std::ostringstream out, err;
   ASSERT_EQ(app::run_cli({"--log-level", "off", "synthesize", truth.string(), "-o", (dir / "regional.csv").string(),
                           "--frames", "20", "--channels", "V_seg01,V_seg02", "--seed", "4"},
                          out, err, models()),
             app::kExitOk)
       << err.str();
-  const auto cfg = write_file(dir / "pers.yaml", std::string("name: pers\n") + kTwoSegment + R"(personalize:
-  observations:
-    file: regional.csv
-    channels: all
-    noise: 0.3 mL
-    start_beats: 20
-  estimate:
-    sigma0: {segments: all, prior: 5.0e4, spread: 50 %, transform: log}
-  filter: {beats: 1, threads: 1}
-)");
+  const auto cfg = write_file(dir / "pers.yaml", two_segment_personalize("pers", "  filter: {beats: 1, threads: 1}\n"));
   const CliRun r = run_with_summary("personalize", cfg, dir);
   ASSERT_EQ(r.code, app::kExitOk) << r.err << r.out;
   expect_provenance(dir, "personalize", cfg, false);

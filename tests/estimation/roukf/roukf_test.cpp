@@ -367,6 +367,18 @@ RoukfOptions split_options() {
   return o;
 }
 
+// The split-pass problem of the MAP tests: the correlated-start model (made nonlinear on request),
+// its 8 frames of data and split_options(). Used as `SplitCase split; auto& [sim, data, o] = split;`.
+struct SplitCase {
+  LinearSimulator sim = correlated_start();
+  RoukfData data;
+  RoukfOptions options = split_options();
+  explicit SplitCase(bool nonlinear = false) {
+    sim.nonlinear = nonlinear;
+    data = make_data(sim, 8);
+  }
+};
+
 // Tempered sub-updates (Zanetti 2012) and scaled points are exact on a linear-Gaussian model:
 // every step holds the Kalman filter's state and covariance, however the frame is split.
 TEST(Roukf, TemperedSubUpdatesAndScaledPointsEqualTheKalmanFilter) {
@@ -397,9 +409,8 @@ TEST(Roukf, TemperedSubUpdatesAndScaledPointsEqualTheKalmanFilter) {
 // several passes with R / phi_b, sum phi_b = 1, end at the one-pass Kalman filter's posterior, and
 // the whole-data statistic equals the sum of that filter's NIS.
 TEST(Roukf, SplitPassesEndAtTheOnePassKalmanPosterior) {
-  const LinearSimulator sim = correlated_start();
-  const RoukfData data = make_data(sim, 8);
-  RoukfOptions o = split_options();
+  SplitCase split;
+  auto& [sim, data, o] = split;
   const RoukfSummary s = run_roukf(sim, linear_prior(), data, o);
   ASSERT_TRUE(s.ok()) << s.message;
   const auto kf = kalman(sim, data, o);
@@ -432,9 +443,8 @@ TEST(Roukf, SplitPassesEndAtTheOnePassKalmanPosterior) {
 // On a linear-Gaussian model the passes already end at the posterior: the Gauss-Newton step is
 // below the tolerance at once and the Laplace covariance is the Kalman filter's.
 TEST(Roukf, MapRefinementKeepsTheKalmanPosteriorOnALinearModel) {
-  const LinearSimulator sim = correlated_start();
-  const RoukfData data = make_data(sim, 8);
-  RoukfOptions o = split_options();
+  SplitCase split;
+  auto& [sim, data, o] = split;
   const RoukfSummary s = run_roukf(sim, linear_prior(), data, o);
   ASSERT_TRUE(s.ok()) << s.message;
   EXPECT_TRUE(s.map_converged) << s.map_note;
@@ -483,11 +493,9 @@ double map_objective(const LinearSimulator& sim, const Prior& prior, const Roukf
 // of Phi itself is below 1e-4 posterior standard deviations there. The reported covariance is the
 // Gauss-Newton (Laplace) one, (J^T R^-1 J + P0^-1)^-1 with J = dh/deta.
 TEST(Roukf, MapRefinementLandsOnTheMapPointOfANonlinearModel) {
-  LinearSimulator sim = correlated_start();
-  sim.nonlinear = true;
-  const RoukfData data = make_data(sim, 8);
+  SplitCase split(true);
+  auto& [sim, data, o] = split;
   const Prior prior = log_prior();
-  RoukfOptions o = split_options();
   const RoukfSummary s = run_roukf(sim, prior, data, o);
   ASSERT_TRUE(s.ok()) << s.message;
   ASSERT_TRUE(s.map_converged) << s.map_note;
@@ -538,20 +546,18 @@ TEST(Roukf, MapRefinementLandsOnTheMapPointOfANonlinearModel) {
 // std at the estimate. Data with four times the stated noise in z1: its scale comes out near 3
 // (the prior pulls 8 frames towards 1), the covariance is the weighted Laplace one, and the whole-data NIS still uses the stated noise.
 TEST(Roukf, NoiseScalesLandOnTheMarginalMapPointAndWidenThePosterior) {
-  LinearSimulator sim = correlated_start();
-  sim.nonlinear = true;
-  RoukfData data = make_data(sim, 8);
+  SplitCase split(true);
+  auto& [sim, data, o] = split;
   const Prior prior = log_prior();
-  RoukfOptions o = split_options();
   const RoukfSummary plain = run_roukf(sim, prior, data, o);  // the stated noise for reference
   ASSERT_TRUE(plain.ok()) << plain.message;
   // Channel z1: an alternating error of 0.2, four times the stated 0.05 (two parameters cannot
   // follow it), so the scale's posterior mode is about (4 + 8 x 16 / 2) / (3 + 4 + 1) = 8.5: s ~ 2.9.
   for (int k = 0; k < 8; ++k) data.values(k, 0) += (k % 2 ? -0.2 : 0.2);
-  o.noise_scale = ChannelNoisePrior{};
+  o.noise_scale = NoiseScalePrior{};
   const RoukfSummary s = run_roukf(sim, prior, data, o);
   ASSERT_TRUE(s.ok()) << s.message << " / " << s.map_note;
-  const ChannelNoisePrior np;
+  const NoiseScalePrior np;
   auto phi = [&](const VectorXd& eta) {
     const VectorXd z = observations(sim, prior, data, eta);
     VectorXd r(16);
@@ -598,9 +604,8 @@ TEST(Roukf, NoiseScalesLandOnTheMarginalMapPointAndWidenThePosterior) {
 // converged" (not a success) and says why. Serial members run in order, each over all 8 frames:
 // the first advance of member 1 (eta + h e_1) is call c + 8 after the c calls of the filter.
 TEST(Roukf, AFailedMemberOfTheMapRefinementKeepsTheFilterEstimate) {
-  LinearSimulator sim = correlated_start();
-  const RoukfData data = make_data(sim, 8);
-  RoukfOptions o = split_options();
+  SplitCase split;
+  auto& [sim, data, o] = split;
   o.map_iterations = 0;
   const RoukfSummary plain = run_roukf(sim, linear_prior(), data, o);
   ASSERT_TRUE(plain.ok()) << plain.message;
@@ -624,11 +629,9 @@ TEST(Roukf, AFailedMemberOfTheMapRefinementKeepsTheFilterEstimate) {
 // nonlinear model the step after the first one is 2e-4 std long (measured), more than a tolerance
 // of 1e-9 std, and map_iterations 1 allows no second step.
 TEST(Roukf, AMapRefinementAtItsIterationLimitIsNotASuccess) {
-  LinearSimulator sim = correlated_start();
-  sim.nonlinear = true;
-  const RoukfData data = make_data(sim, 8);
+  SplitCase split(true);
+  auto& [sim, data, o] = split;
   const Prior prior = log_prior();
-  RoukfOptions o = split_options();
   o.map_iterations = 1;
   o.map_tolerance = 1e-9;
   const RoukfSummary s = run_roukf(sim, prior, data, o);

@@ -516,12 +516,8 @@ TEST(SparseSolver, EllipsoidCoarseSpaceIsAPartitionOfUnityOnEveryField) {
 // unity on each displacement component and nothing on the pressures.
 TEST(SparseSolver, HalfMeshCoarseGridFollowsTheMeshWithDisplacementsOnly) {
   const EllipsoidGeometry geo;
-  EllipsoidMeshOptions eo;
-  eo.n_transmural = 3;
-  eo.n_longitudinal = 18;
-  eo.n_circumferential = 36;
-  eo.order = 1;
-  const Mesh mesh = ellipsoid_mesh(geo, eo);
+  const Mesh mesh = ellipsoid_mesh(
+      geo, {.n_transmural = 3, .n_longitudinal = 18, .n_circumferential = 36, .order = 1});
   const EllipsoidCoarseOptions co = ellipsoid_coarse_options(3, 18, 36, CoarseGrid::kHalfMesh);
   EXPECT_EQ(co.transmural, 3);
   EXPECT_EQ(co.meridian, 10);

@@ -264,7 +264,7 @@ INSTANTIATE_TEST_SUITE_P(
                        o.area_shares = {1.0};
                        return std::make_unique<model::lumped::RegionalVentricle>(o);
                      }}),
-    [](const ::testing::TestParamInfo<ContractCase>& param_info) { return param_info.param.name; });
+    contract_case_name);
 
 }  // namespace
 }  // namespace sigmaheart::testing

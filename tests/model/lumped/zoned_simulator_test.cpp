@@ -25,6 +25,13 @@ std::vector<ParameterZone> two_zones(const ParameterSpace& s) {
           {"sigma0_back", {s.index_or_throw("sigma0_04"), s.index_or_throw("sigma0_05")}}};
 }
 
+// The simulator of the contract tests below: two zones over the five patches.
+std::unique_ptr<Simulator> two_zones_of_five_patches() {
+  auto inner = five_patches();
+  const ParameterSpace in = inner->parameters();
+  return std::make_unique<ZonedSimulator>(std::move(inner), two_zones(in));
+}
+
 TEST(ZonedSimulator, SpaceDropsTheMembersAndAppendsOneParameterPerZone) {
   auto inner = five_patches();
   const ParameterSpace in = inner->parameters();
@@ -104,16 +111,9 @@ TEST(ZonedSimulator, RefusesOverlappingEmptyOrMixedZones) {
 namespace sigmaheart::testing {
 namespace {
 
-INSTANTIATE_TEST_SUITE_P(
-    ZonedSimulator, SimulatorContract,
-    ::testing::Values(ContractCase{"two_zones_of_five_patches",
-                                   [] {
-                                     auto inner = model::five_patches();
-                                     const model::ParameterSpace in = inner->parameters();
-                                     return std::make_unique<model::ZonedSimulator>(std::move(inner),
-                                                                                    model::two_zones(in));
-                                   }}),
-    [](const ::testing::TestParamInfo<ContractCase>& param_info) { return param_info.param.name; });
+INSTANTIATE_TEST_SUITE_P(ZonedSimulator, SimulatorContract,
+                         ::testing::Values(ContractCase{"two_zones_of_five_patches", model::two_zones_of_five_patches}),
+                         contract_case_name);
 
 }  // namespace
 }  // namespace sigmaheart::testing
