@@ -3,6 +3,7 @@
 
 #include "app/blackbox/register.h"
 
+#include "model/lumped/regional.h"
 #include "model/lumped/sphere.h"
 #ifdef SIGMAHEART_HAVE_FEM
 #include "model/fem/electromechanics.h"
@@ -324,12 +325,15 @@ TEST(Config, APresetSetsItsValuesUnderTheConfigsOwnParameters) {
       "  parameters: {sigma0: 4.0e4}\n", "hf.yaml");
   EXPECT_EQ(both.simulator.parameters[both.simulator.parameters.index_or_throw("sigma0")].nominal, 4.0e4);
 
-  // On the regional model the preset's contractility goes to every segment (found by its tag).
+  // On the regional model the preset's contractility goes to every segment (found by its tag),
+  // scaled by the ratio of the two models' default contractilities (model/lumped/register.cpp).
   const Config regional = parse_config(
       "name: hf\nsimulator:\n  model: lumped-regional\n  preset: heart-failure\n", "hf.yaml");
   const auto& space = regional.simulator.parameters;
+  const model::ParameterSpace sphere = model::lumped::LumpedSphere::default_parameters();
+  const double scale = model::lumped::kRegionalSigma0 / sphere[sphere.index_or_throw("sigma0")].nominal;
   ASSERT_EQ(space.regional("contractility").size(), 17u);
-  for (int i : space.regional("contractility")) EXPECT_EQ(space[i].nominal, 5.4e4) << space[i].name;
+  for (int i : space.regional("contractility")) EXPECT_EQ(space[i].nominal, scale * 5.4e4) << space[i].name;
 
   const std::string e = error_of([] {
     parse_config("name: x\nsimulator:\n  model: lumped-sphere\n  preset: heart-failur\n", "x.yaml");
