@@ -172,15 +172,6 @@ void add_set_option(CLI::App& sub, std::vector<std::string>& overrides) {
       ->allow_extra_args(false);
 }
 
-void add_config_command(CLI::App& app, CommandContext& ctx, const std::string& name, const std::string& about,
-                        int (*run)(const ConfigOptions&, CommandContext&)) {
-  auto opts = std::make_shared<ConfigOptions>();
-  CLI::App* sub = app.add_subcommand(name, about);
-  sub->add_option("config", opts->config, "Config file (YAML)")->required();
-  add_set_option(*sub, opts->overrides);
-  sub->callback([opts, &ctx, run] { ctx.run = [opts, &ctx, run] { return run(*opts, ctx); }; });
-}
-
 void add_study_command(CLI::App& app, CommandContext& ctx, const std::string& name, const std::string& about,
                        const StudyHelp& help, int (*run)(const StudyOptions&, CommandContext&)) {
   auto opts = std::make_shared<StudyOptions>();

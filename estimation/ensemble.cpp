@@ -14,11 +14,9 @@
 
 namespace sigmaheart::estimation {
 
-constexpr std::array<EnumName<Backend>, 4> kBackendNames{{
+SIGMAHEART_ENUM_TEXT(Backend, parse_backend,
     {Backend::kSerial, "serial"}, {Backend::kThreads, "threads"}, {Backend::kMpi, "mpi"},
-    {Backend::kThreads, "openmp"},
-}};
-SIGMAHEART_ENUM_TEXT(Backend, parse_backend, kBackendNames)
+    {Backend::kThreads, "openmp"})
 
 std::string EnsembleOptions::validate() const {
   if (threads < 0 || threads > kMaxThreads) {

@@ -392,10 +392,8 @@ std::string join(const std::vector<std::string>& v) {
 
 }  // namespace
 
-constexpr std::array<EnumName<FiniteDifference>, 2> kFiniteDifferenceNames{{
-    {FiniteDifference::kForward, "forward"}, {FiniteDifference::kCentral, "central"},
-}};
-SIGMAHEART_ENUM_TEXT(FiniteDifference, parse_finite_difference, kFiniteDifferenceNames)
+SIGMAHEART_ENUM_TEXT(FiniteDifference, parse_finite_difference,
+    {FiniteDifference::kForward, "forward"}, {FiniteDifference::kCentral, "central"})
 
 constexpr std::array<EnumName<LsqTermination>, 6> kLsqTerminationNames{{
     {LsqTermination::kConverged, "converged"}, {LsqTermination::kMaxIterations, "max iterations"},

@@ -15,17 +15,13 @@ constexpr std::array<EnumName<PriorKind>, 2> kPriorKindNames{{
 }};
 const char* to_string(PriorKind kind) { return enum_to_string(kPriorKindNames, kind); }
 
-constexpr std::array<EnumName<SamplingSpace>, 4> kSamplingSpaceNames{{
+SIGMAHEART_ENUM_TEXT(SamplingSpace, parse_sampling_space,
     {SamplingSpace::kPhysical, "physical"}, {SamplingSpace::kEta, "eta"},
-    {SamplingSpace::kPhysical, "theta"}, {SamplingSpace::kEta, "transformed"},
-}};
-SIGMAHEART_ENUM_TEXT(SamplingSpace, parse_sampling_space, kSamplingSpaceNames)
+    {SamplingSpace::kPhysical, "theta"}, {SamplingSpace::kEta, "transformed"})
 
-constexpr std::array<EnumName<SpreadKind>, 3> kSpreadKindNames{{
+SIGMAHEART_ENUM_TEXT(SpreadKind, parse_spread_kind,
     {SpreadKind::kRelative, "relative"}, {SpreadKind::kAbsolute, "absolute"},
-    {SpreadKind::kEta, "eta"},
-}};
-SIGMAHEART_ENUM_TEXT(SpreadKind, parse_spread_kind, kSpreadKindNames)
+    {SpreadKind::kEta, "eta"})
 
 PriorParameter PriorParameter::gaussian(std::string name, std::string unit, double theta_mean,
                                         double spread, SpreadKind spread_kind, Transform transform,

@@ -65,12 +65,10 @@ std::vector<int> finite_rows(const Eigen::MatrixXd& Y) {
 
 }  // namespace
 
-constexpr std::array<EnumName<PropagationMethod>, 3> kMethodNames{{
+SIGMAHEART_ENUM_TEXT(PropagationMethod, parse_propagation_method,
     {PropagationMethod::kUnscented, "unscented"},
     {PropagationMethod::kMonteCarlo, "monte-carlo"},
-    {PropagationMethod::kPoint, "point"},
-}};
-SIGMAHEART_ENUM_TEXT(PropagationMethod, parse_propagation_method, kMethodNames)
+    {PropagationMethod::kPoint, "point"})
 
 Eigen::VectorXd Posterior::theta(const Eigen::Ref<const Eigen::VectorXd>& eta) const {
   Eigen::VectorXd out(eta.size());

@@ -12,11 +12,9 @@
 
 namespace sigmaheart::estimation {
 
-constexpr std::array<EnumName<SigmaRule>, 4> kSigmaRuleNames{{
+SIGMAHEART_ENUM_TEXT(SigmaRule, parse_sigma_rule,
     {SigmaRule::kSimplex, "simplex"}, {SigmaRule::kCanonical, "canonical"},
-    {SigmaRule::kStar, "star"}, {SigmaRule::kScaled, "scaled"},
-}};
-SIGMAHEART_ENUM_TEXT(SigmaRule, parse_sigma_rule, kSigmaRuleNames)
+    {SigmaRule::kStar, "star"}, {SigmaRule::kScaled, "scaled"})
 
 std::string SigmaOptions::validate(int p) const {
   std::ostringstream s;

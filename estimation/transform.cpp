@@ -8,11 +8,9 @@
 
 namespace sigmaheart::estimation {
 
-constexpr std::array<EnumName<TransformKind>, 4> kTransformKindNames{{
+SIGMAHEART_ENUM_TEXT(TransformKind, parse_transform_kind,
     {TransformKind::kIdentity, "identity"}, {TransformKind::kLog, "log"},
-    {TransformKind::kLogit, "logit"}, {TransformKind::kIdentity, "none"},
-}};
-SIGMAHEART_ENUM_TEXT(TransformKind, parse_transform_kind, kTransformKindNames)
+    {TransformKind::kLogit, "logit"}, {TransformKind::kIdentity, "none"})
 
 double Transform::to_theta(double eta) const {
   switch (kind) {

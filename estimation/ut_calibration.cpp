@@ -52,17 +52,13 @@ std::string format_number(double x) {
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
-constexpr std::array<EnumName<UtMode>, 5> kUtModeNames{{
+SIGMAHEART_ENUM_TEXT(UtMode, parse_ut_mode,
     {UtMode::kOneShot, "one-shot"}, {UtMode::kIterateKeepSpread, "iterate-keep-spread"},
     {UtMode::kIterateInflate, "iterate-inflate"}, {UtMode::kMap, "map"},
-    {UtMode::kMap, "iterate-map"},
-}};
-SIGMAHEART_ENUM_TEXT(UtMode, parse_ut_mode, kUtModeNames)
+    {UtMode::kMap, "iterate-map"})
 
-constexpr std::array<EnumName<UtFailurePolicy>, 2> kUtFailurePolicyNames{{
-    {UtFailurePolicy::kAbort, "abort"}, {UtFailurePolicy::kShrinkAndRetry, "shrink-and-retry"},
-}};
-SIGMAHEART_ENUM_TEXT(UtFailurePolicy, parse_ut_failure_policy, kUtFailurePolicyNames)
+SIGMAHEART_ENUM_TEXT(UtFailurePolicy, parse_ut_failure_policy,
+    {UtFailurePolicy::kAbort, "abort"}, {UtFailurePolicy::kShrinkAndRetry, "shrink-and-retry"})
 
 constexpr std::array<EnumName<UtInnovation>, 3> kUtInnovationNames{{
     {UtInnovation::kAuto, "auto"}, {UtInnovation::kSigmaMean, "sigma-mean"},

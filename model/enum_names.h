@@ -37,10 +37,12 @@ std::optional<E> enum_from_string(const std::array<EnumName<E>, N>& table, std::
 
 }  // namespace sigmaheart::model
 
-// Defines the pair every named enum declares beside its table (an std::array<EnumName<Enum>, N>):
+// Defines the pair every named enum declares, from its table given as the entries
+// {Enum::kValue, "name"}, ... (the table is the constant k<parse>_names of the source file):
 //   const char* to_string(Enum);  std::optional<Enum> parse(const std::string&);
-#define SIGMAHEART_ENUM_TEXT(Enum, parse, table)                                          \
-  const char* to_string(Enum value) { return ::sigmaheart::model::enum_to_string(table, value); } \
-  std::optional<Enum> parse(const std::string& text) {                                    \
-    return ::sigmaheart::model::enum_from_string(table, text);                            \
+#define SIGMAHEART_ENUM_TEXT(Enum, parse, ...)                                                    \
+  constexpr auto k##parse##_names = std::to_array<::sigmaheart::model::EnumName<Enum>>({__VA_ARGS__}); \
+  const char* to_string(Enum value) { return ::sigmaheart::model::enum_to_string(k##parse##_names, value); } \
+  std::optional<Enum> parse(const std::string& text) {                                            \
+    return ::sigmaheart::model::enum_from_string(k##parse##_names, text);                         \
   }

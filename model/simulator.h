@@ -226,6 +226,15 @@ class SteppableSimulator : public Simulator {
   SteppableSimulator* steppable() final { return this; }
 };
 
+// Declares, in the class body of a SteppableSimulator, the three members it implements out of line:
+// initial_state, advance and sample (state_layout and with_time_step_factor stay the model's).
+#define SIGMAHEART_STEPPING_OVERRIDES                                                              \
+  ::sigmaheart::model::State initial_state(const ::Eigen::Ref<const ::Eigen::VectorXd>& theta) override; \
+  ::sigmaheart::model::Status advance(::sigmaheart::model::State& state,                           \
+                                      const ::Eigen::Ref<const ::Eigen::VectorXd>& theta, double t_end) override; \
+  ::Eigen::VectorXd sample(const ::sigmaheart::model::State& state,                                \
+                           const ::Eigen::Ref<const ::Eigen::VectorXd>& theta) const override
+
 // The simulator as a SteppableSimulator when it is one (ownership passes), else nullptr and the
 // simulator is destroyed.
 std::unique_ptr<SteppableSimulator> into_steppable(std::unique_ptr<Simulator> simulator);

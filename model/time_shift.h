@@ -32,9 +32,7 @@ class TimeShift final : public WrappedSimulator {
   static ParameterSpace shifted_space(const ParameterSpace& inner);
 
   RunResult run(const Eigen::Ref<const Eigen::VectorXd>& theta) override;
-  State initial_state(const Eigen::Ref<const Eigen::VectorXd>& theta) override;
-  Status advance(State& state, const Eigen::Ref<const Eigen::VectorXd>& theta, double t_end) override;
-  Eigen::VectorXd sample(const State& state, const Eigen::Ref<const Eigen::VectorXd>& theta) const override;
+  SIGMAHEART_STEPPING_OVERRIDES;
 
  private:
   Eigen::VectorXd inner_theta(const Eigen::Ref<const Eigen::VectorXd>& theta) const {

@@ -40,9 +40,7 @@ class ZonedSimulator final : public WrappedSimulator {
   const std::vector<ParameterZone>& zones() const { return zones_; }
 
   RunResult run(const Eigen::Ref<const Eigen::VectorXd>& theta) override;
-  State initial_state(const Eigen::Ref<const Eigen::VectorXd>& theta) override;
-  Status advance(State& state, const Eigen::Ref<const Eigen::VectorXd>& theta, double t_end) override;
-  Eigen::VectorXd sample(const State& state, const Eigen::Ref<const Eigen::VectorXd>& theta) const override;
+  SIGMAHEART_STEPPING_OVERRIDES;
 
  private:
   std::unique_ptr<SteppableSimulator> rewrap(std::unique_ptr<SteppableSimulator> inner) const override {

@@ -116,11 +116,7 @@ class ExternalSteppableSimulator final : public ExternalBase<ExternalSteppableSi
   model::RunResult run(const Eigen::Ref<const Eigen::VectorXd>& theta) override;
   std::vector<model::Channel> state_layout() const override { return options_->state; }
   // Throws std::runtime_error when the program fails (the contract has no Status here).
-  model::State initial_state(const Eigen::Ref<const Eigen::VectorXd>& theta) override;
-  model::Status advance(model::State& state, const Eigen::Ref<const Eigen::VectorXd>& theta,
-                        double t_end) override;
-  Eigen::VectorXd sample(const model::State& state,
-                         const Eigen::Ref<const Eigen::VectorXd>& theta) const override;
+  SIGMAHEART_STEPPING_OVERRIDES;
 
  private:
   // One program call from `in` (nullptr: the initial state) to t_end; fills out_state and

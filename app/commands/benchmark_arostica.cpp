@@ -127,9 +127,8 @@ int run_arostica(const ArosticaCliOptions& c, CommandContext& ctx) {
 }  // namespace
 
 void add_arostica_benchmark(CLI::App& bench, CommandContext& ctx) {
-  auto aro = std::make_shared<ArosticaCliOptions>();
-  CLI::App* arost = bench.add_subcommand(
-      "arostica", "Arostica et al. 2025 cardiac elastodynamics benchmark, Benchmark 1 / Step 1 (3D FEM)");
+  auto [arost, aro] = add_command(bench, ctx, "arostica",
+                                  "Arostica et al. 2025 cardiac elastodynamics benchmark, Benchmark 1 / Step 1 (3D FEM)", run_arostica);
   arost->add_option("--mesh", aro->mesh, "P2 ellipsoid mesh: layers,rings,sectors (default 2,12,24)")->delimiter(',');
   arost->add_option("--mesh-file", aro->mesh_file,
                     "Legacy DOLFIN HDF5 mesh instead of the generated one, e.g. the organisers' "
@@ -145,7 +144,6 @@ void add_arostica_benchmark(CLI::App& bench, CommandContext& ctx) {
                     "chord (default: one factorisation per step while the updates contract) or full "
                     "(a factorisation per Newton iteration)");
   arost->add_option("-o,--output", aro->output, "Write the p0/p1 curves as CSV (every 0.01 s)");
-  arost->callback([aro, &ctx] { ctx.run = [aro, &ctx] { return run_arostica(*aro, ctx); }; });
 }
 
 }  // namespace sigmaheart::app

@@ -110,8 +110,7 @@ int run_land(const BenchmarkOptions& o, CommandContext& ctx) {
 }  // namespace
 
 void add_land_benchmark(CLI::App& bench, CommandContext& ctx) {
-  auto opts = std::make_shared<BenchmarkOptions>();
-  CLI::App* land = bench.add_subcommand("land", "Land et al. 2015 cardiac mechanics benchmark (3D FEM)");
+  auto [land, opts] = add_command(bench, ctx, "land", "Land et al. 2015 cardiac mechanics benchmark (3D FEM)", run_land);
   land->add_option("--problem", opts->problem, "Problem 1 (beam), 2 (inflation) or 3 (inflation + contraction)")
       ->check(CLI::Range(1, 3));
   land->add_option("--refinement", opts->refinements, "Mesh refinement level(s) K >= 1 (repeat or comma-separate)")
@@ -121,7 +120,6 @@ void add_land_benchmark(CLI::App& bench, CommandContext& ctx) {
   land->add_option("--base", opts->base, "Base condition: fixed or sliding");
   land->add_option("-o,--output", opts->output, "Write the result table as CSV");
   land->add_option("--vtu", opts->vtu, "Write the deformed state as ParaView files into this directory");
-  land->callback([opts, &ctx] { ctx.run = [opts, &ctx] { return run_land(*opts, ctx); }; });
 }
 
 }  // namespace sigmaheart::app

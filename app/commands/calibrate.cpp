@@ -135,14 +135,10 @@ int run_calibrate(const StudyOptions& o, CommandContext& ctx) {
     report_written(ctx, io::calibration_report(results), output, study.summary(summary.ok()),
                    [&](const std::filesystem::path& p) { io::write_calibration_json(p, config.name, results, prov); });
   }
-  study.finish();
-  if (!summary.ok()) {
-    // Not a success (docs/estimation.md s.9): say what happened, exit 1; the results are written.
-    return stopped_early(ctx, "calibration " + std::string(estimation::to_string(summary.termination)) +
-                                  ": " + summary.message + "; the results (status included) are in " +
-                                  output.string() + study.kept_note());
-  }
-  return kExitOk;
+  // Not a success (docs/estimation.md s.9): say what happened, exit 1; the results are written.
+  return study.end(ctx, summary.ok(),
+                   "calibration " + std::string(estimation::to_string(summary.termination)) + ": " + summary.message +
+                       "; the results (status included) are in");
 }
 
 }  // namespace

@@ -17,6 +17,7 @@
 
 #include <filesystem>
 #include <functional>
+#include <memory>
 #include <ostream>
 #include <string>
 #include <vector>
@@ -81,10 +82,35 @@ struct ConfigOptions {
   std::vector<std::string> overrides;  // "key=value"
 };
 
-// Adds subcommand `name` with the positional config (required) and --set; when it is chosen,
-// ctx.run calls run(options, ctx).
-void add_config_command(CLI::App& app, CommandContext& ctx, const std::string& name, const std::string& about,
-                        int (*run)(const ConfigOptions&, CommandContext&));
+// A subcommand and the options it fills (shared with its callback).
+template <class Options>
+struct BoundCommand {
+  CLI::App* app;
+  std::shared_ptr<Options> options;
+};
+
+// Adds subcommand `name` to `parent`; when it is chosen, ctx.run calls run(options, ctx). The
+// caller adds the command's own options to the returned app.
+template <class Options>
+BoundCommand<Options> add_command(CLI::App& parent, CommandContext& ctx, const std::string& name,
+                                  const std::string& about, int (*run)(const Options&, CommandContext&)) {
+  auto options = std::make_shared<Options>();
+  CLI::App* sub = parent.add_subcommand(name, about);
+  sub->callback([options, run, &ctx] { ctx.run = [options, run, &ctx] { return run(*options, ctx); }; });
+  return {sub, options};
+}
+
+// add_command for a command on a config: the positional config (required; Options::config) and
+// --set (Options::overrides) come first.
+template <class Options>
+BoundCommand<Options> add_config_command(CLI::App& app, CommandContext& ctx, const std::string& name,
+                                         const std::string& about, int (*run)(const Options&, CommandContext&),
+                                         const std::string& config_help = "Config file (YAML)") {
+  BoundCommand<Options> command = add_command(app, ctx, name, about, run);
+  command.app->add_option("config", command.options->config, config_help)->required();
+  add_set_option(*command.app, command.options->overrides);
+  return command;
+}
 
 // The options the estimation commands (calibrate, personalize, sensitivity, specificity) share.
 struct StudyOptions {
@@ -150,12 +176,16 @@ class StudyRun {
   std::string kept_note() const { return kept_note_; }
   // The results are written: logs what the checkpoint saved and removes it.
   void finish();
+  // The command's end once its results are written: finish(), then kExitOk when it succeeded, else
+  // stopped_early(ctx, "<failure> <the results file output() gave><kept_note()>").
+  int end(const CommandContext& ctx, bool succeeded, const std::string& failure);
   const std::filesystem::path& checkpoint_path() const { return checkpoint_path_; }
 
  private:
   std::filesystem::path aside(const std::filesystem::path& file, bool succeeded);
 
   std::filesystem::path output_;
+  std::filesystem::path written_;  // what output() last returned
   std::filesystem::path summary_;
   std::filesystem::path checkpoint_path_;
   std::unique_ptr<estimation::MemberCheckpoint> checkpoint_;

@@ -152,13 +152,11 @@ int run_observe(const ObserveOptions& o, CommandContext& ctx) {
 }  // namespace
 
 void register_observe(CLI::App& app, CommandContext& ctx) {
-  auto opts = std::make_shared<ObserveOptions>();
-  CLI::App* sub = app.add_subcommand("observe", "LV and AHA regional volume curves from tracked meshes or label images");
-  sub->add_option("config", opts->config, "Config file (YAML) with an observe: section")->required();
+  auto [sub, opts] = add_config_command(app, ctx, "observe",
+                                        "LV and AHA regional volume curves from tracked meshes or label images",
+                                        run_observe, "Config file (YAML) with an observe: section");
   sub->add_option("-o,--output", opts->output, "Observation CSV; default results/<config>-observe.csv");
   sub->add_option("--results", opts->results, "Results file (HDF5) for scripts/plot; default the CSV's name with .h5");
-  add_set_option(*sub, opts->overrides);
-  sub->callback([opts, &ctx] { ctx.run = [opts, &ctx] { return run_observe(*opts, ctx); }; });
 }
 
 }  // namespace sigmaheart::app

@@ -88,13 +88,9 @@ int run_personalize(const StudyOptions& o, CommandContext& ctx) {
     report_written(ctx, io::roukf_report(results), output, study.summary(summary.ok()),
                    [&](const std::filesystem::path& p) { io::write_roukf_json(p, config.name, results, prov); });
   }
-  study.finish();
-  if (!summary.ok()) {
-    return stopped_early(ctx, "the filter stopped (" + std::string(estimation::to_string(summary.termination)) +
-                                  "): " + summary.message + "; the steps done are in " + output.string() +
-                                  study.kept_note());
-  }
-  return kExitOk;
+  return study.end(ctx, summary.ok(),
+                   "the filter stopped (" + std::string(estimation::to_string(summary.termination)) +
+                       "): " + summary.message + "; the steps done are in");
 }
 
 }  // namespace

@@ -88,10 +88,9 @@ int run_serve(const ServeCommandOptions& o, CommandContext& ctx) {
 }  // namespace
 
 void register_serve(CLI::App& app, CommandContext& ctx) {
-  auto opts = std::make_shared<ServeCommandOptions>();
-  CLI::App* sub = app.add_subcommand(
-      "serve", "Serve the config's simulator as a UM-Bridge model (HTTP/JSON) until Ctrl-C");
-  sub->add_option("config", opts->config, "Config file (YAML)")->required();
+  auto [sub, opts] = add_config_command(app, ctx, "serve",
+                                        "Serve the config's simulator as a UM-Bridge model (HTTP/JSON) until Ctrl-C",
+                                        run_serve);
   sub->add_option("--host", opts->host, "Address to listen on")->capture_default_str();
   sub->add_option("--port", opts->port, "TCP port (0: any free port, printed)")
       ->check(CLI::Range(0, 65535))
@@ -111,8 +110,6 @@ void register_serve(CLI::App& app, CommandContext& ctx) {
   sub->add_option("--keep-alive", opts->keep_alive, "Seconds an idle connection is kept open")
       ->check(CLI::Range(0.1, 3600.0))
       ->capture_default_str();
-  add_set_option(*sub, opts->overrides);
-  sub->callback([opts, &ctx] { ctx.run = [opts, &ctx] { return run_serve(*opts, ctx); }; });
 }
 
 }  // namespace sigmaheart::app

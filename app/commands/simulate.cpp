@@ -162,9 +162,8 @@ int run_simulate(const SimulateOptions& o, CommandContext& ctx) {
 }
 
 void register_simulate(CLI::App& app, CommandContext& ctx) {
-  auto opts = std::make_shared<SimulateOptions>();
-  CLI::App* sub = app.add_subcommand("simulate", "Run the configured simulator once and save the beat");
-  sub->add_option("config", opts->config, "Config file (YAML)")->required();
+  auto [sub, opts] = add_config_command(app, ctx, "simulate", "Run the configured simulator once and save the beat",
+                                        run_simulate);
   sub->add_option("-o,--output", opts->output, "Results file (HDF5); default results/<config>-simulate.h5");
   sub->add_option("--csv", opts->csv, "Also write the curves as CSV (header 'name [unit]')");
   sub->add_option("--summary", opts->summary, "Also write the indices as JSON");
@@ -172,8 +171,6 @@ void register_simulate(CLI::App& app, CommandContext& ctx) {
                   "Models with spatial fields (lv-3d): write the last beat as binary VTU files plus a .pvd "
                   "index into this directory (lv-3d: displacement, activation time, active stress, fibre "
                   "strain, AHA segments)");
-  add_set_option(*sub, opts->overrides);
-  sub->callback([opts, &ctx] { ctx.run = [opts, &ctx] { return run_simulate(*opts, ctx); }; });
 }
 
 }  // namespace sigmaheart::app

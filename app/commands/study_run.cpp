@@ -74,8 +74,14 @@ std::filesystem::path StudyRun::aside(const std::filesystem::path& file, bool su
   return result_path(file, succeeded, &kept_note_);
 }
 
-std::filesystem::path StudyRun::output(bool succeeded) { return aside(output_, succeeded); }
+std::filesystem::path StudyRun::output(bool succeeded) { return written_ = aside(output_, succeeded); }
 std::filesystem::path StudyRun::summary(bool succeeded) { return aside(summary_, succeeded); }
+
+int StudyRun::end(const CommandContext& ctx, bool succeeded, const std::string& failure) {
+  finish();
+  if (succeeded) return kExitOk;
+  return stopped_early(ctx, failure + " " + written_.string() + kept_note_);
+}
 
 void StudyRun::finish() {
   finished_ = true;

@@ -180,10 +180,9 @@ int run_synthesize(const SynthesizeOptions& o, CommandContext& ctx) {
 }  // namespace
 
 void register_synthesize(CLI::App& app, CommandContext& ctx) {
-  auto opts = std::make_shared<SynthesizeOptions>();
-  CLI::App* sub = app.add_subcommand(
-      "synthesize", "Sample a simulated beat at image frames with noise (twin experiments, test data)");
-  sub->add_option("config", opts->config, "Config file (YAML)")->required();
+  auto [sub, opts] = add_config_command(
+      app, ctx, "synthesize", "Sample a simulated beat at image frames with noise (twin experiments, test data)",
+      run_synthesize);
   sub->add_option("-o,--output", opts->output, "Observation CSV to write")->required();
   sub->add_option("--frames", opts->frames, "Frames per beat")->capture_default_str();
   sub->add_option("--offset", opts->offset_ms, "Time of frame 0 after the beat start [ms]")
@@ -192,8 +191,6 @@ void register_synthesize(CLI::App& app, CommandContext& ctx) {
       ->capture_default_str();
   sub->add_option("--noise", opts->noise, "Noise std per channel, e.g. --noise 'V_lv=2 mL'");
   sub->add_option("--seed", opts->seed, "Seed of the noise")->capture_default_str();
-  add_set_option(*sub, opts->overrides);
-  sub->callback([opts, &ctx] { ctx.run = [opts, &ctx] { return run_synthesize(*opts, ctx); }; });
 }
 
 }  // namespace sigmaheart::app

@@ -91,14 +91,10 @@ int run_therapy(const StudyOptions& o, CommandContext& ctx) {
     report_written(ctx, io::therapy_report(results), output, study.summary(ok),
                    [&](const std::filesystem::path& p) { io::write_therapy_json(p, config.name, results, prov); });
   }
-  study.finish();
-  if (!ok) {
-    const std::string why = !summary.ok() ? summary.message
-                                          : "the prediction starts from a personalisation that did not converge (" +
-                                                problem.personalization->status + ")";
-    return stopped_early(ctx, "therapy: " + why + "; results in " + output.string() + study.kept_note());
-  }
-  return kExitOk;
+  const std::string why = summary.ok() ? "the prediction starts from a personalisation that did not converge (" +
+                                              (problem.personalization ? problem.personalization->status : "") + ")"
+                                        : summary.message;
+  return study.end(ctx, ok, "therapy: " + why + "; results in");
 }
 
 void register_therapy(CLI::App& app, CommandContext& ctx) {

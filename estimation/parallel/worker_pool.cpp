@@ -14,10 +14,8 @@
 
 namespace sigmaheart::estimation::parallel {
 
-constexpr std::array<EnumName<Schedule>, 3> kScheduleNames{{
-    {Schedule::kDynamic, "dynamic"}, {Schedule::kFixed, "fixed"}, {Schedule::kFixed, "static"},
-}};
-SIGMAHEART_ENUM_TEXT(Schedule, parse_schedule, kScheduleNames)
+SIGMAHEART_ENUM_TEXT(Schedule, parse_schedule,
+    {Schedule::kDynamic, "dynamic"}, {Schedule::kFixed, "fixed"}, {Schedule::kFixed, "static"})
 
 namespace {
 

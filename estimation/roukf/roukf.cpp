@@ -18,16 +18,12 @@
 
 namespace sigmaheart::estimation {
 
-constexpr std::array<EnumName<RoukfFailurePolicy>, 3> kRoukfFailurePolicyNames{{
+SIGMAHEART_ENUM_TEXT(RoukfFailurePolicy, parse_roukf_failure_policy,
     {RoukfFailurePolicy::kRetryThenSkip, "retry-then-skip"},
-    {RoukfFailurePolicy::kSkipWithInflation, "skip"}, {RoukfFailurePolicy::kAbort, "abort"},
-}};
-SIGMAHEART_ENUM_TEXT(RoukfFailurePolicy, parse_roukf_failure_policy, kRoukfFailurePolicyNames)
+    {RoukfFailurePolicy::kSkipWithInflation, "skip"}, {RoukfFailurePolicy::kAbort, "abort"})
 
-constexpr std::array<EnumName<RoukfPassMode>, 2> kRoukfPassModeNames{{
-    {RoukfPassMode::kRepeat, "repeat"}, {RoukfPassMode::kSplit, "split"},
-}};
-SIGMAHEART_ENUM_TEXT(RoukfPassMode, parse_roukf_pass_mode, kRoukfPassModeNames)
+SIGMAHEART_ENUM_TEXT(RoukfPassMode, parse_roukf_pass_mode,
+    {RoukfPassMode::kRepeat, "repeat"}, {RoukfPassMode::kSplit, "split"})
 
 constexpr std::array<EnumName<RoukfTermination>, 7> kRoukfTerminationNames{{
     {RoukfTermination::kCompleted, "completed"}, {RoukfTermination::kMemberFailed, "member failed"},

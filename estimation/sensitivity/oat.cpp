@@ -16,10 +16,8 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 }
 
-constexpr std::array<EnumName<OatMode>, 2> kOatModeNames{{
-    {OatMode::kRange, "range"}, {OatMode::kRelative, "relative"},
-}};
-SIGMAHEART_ENUM_TEXT(OatMode, parse_oat_mode, kOatModeNames)
+SIGMAHEART_ENUM_TEXT(OatMode, parse_oat_mode,
+    {OatMode::kRange, "range"}, {OatMode::kRelative, "relative"})
 
 std::string OatOptions::validate() const {
   if (mode == OatMode::kRelative && !(relative_change > 0.0 && relative_change < 1.0)) {

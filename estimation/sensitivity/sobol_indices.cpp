@@ -74,11 +74,9 @@ Indices estimate_on(const Eigen::MatrixXd& Z, int p, int N, const std::vector<in
 
 }  // namespace
 
-constexpr std::array<EnumName<SobolFailurePolicy>, 3> kFailurePolicyNames{{
+SIGMAHEART_ENUM_TEXT(SobolFailurePolicy, parse_sobol_failure_policy,
     {SobolFailurePolicy::kStop, "stop"}, {SobolFailurePolicy::kImputeMean, "impute-mean"},
-    {SobolFailurePolicy::kImputeMean, "impute_mean"},
-}};
-SIGMAHEART_ENUM_TEXT(SobolFailurePolicy, parse_sobol_failure_policy, kFailurePolicyNames)
+    {SobolFailurePolicy::kImputeMean, "impute_mean"})
 
 std::int64_t sobol_runs(int p, std::int64_t N, bool second_order) {
   return N * (second_order ? 2 * static_cast<std::int64_t>(p) + 2 : static_cast<std::int64_t>(p) + 2);

@@ -71,12 +71,10 @@ std::uint32_t apply(const std::array<std::uint32_t, 32>& rows, std::uint32_t x) 
 
 }  // namespace
 
-constexpr std::array<EnumName<Scrambling>, 5> kScramblingNames{{
+SIGMAHEART_ENUM_TEXT(Scrambling, parse_scrambling,
     {Scrambling::kNone, "none"}, {Scrambling::kLinearMatrixAndShift, "lms"},
     {Scrambling::kNone, "off"}, {Scrambling::kLinearMatrixAndShift, "matousek"},
-    {Scrambling::kLinearMatrixAndShift, "linear-matrix-shift"},
-}};
-SIGMAHEART_ENUM_TEXT(Scrambling, parse_scrambling, kScramblingNames)
+    {Scrambling::kLinearMatrixAndShift, "linear-matrix-shift"})
 
 std::string SobolSequenceOptions::validate() const {
   if (dimension < 1 || dimension > kMaxSobolDimension) {

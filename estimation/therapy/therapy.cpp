@@ -14,8 +14,7 @@ namespace sigmaheart::estimation::therapy {
 
 namespace act = model::activation;
 
-constexpr std::array<EnumName<Mode>, 2> kModeNames{{{Mode::kBiventricular, "biv"}, {Mode::kLvOnly, "lv-only"}}};
-SIGMAHEART_ENUM_TEXT(Mode, parse_mode, kModeNames)
+SIGMAHEART_ENUM_TEXT(Mode, parse_mode, {Mode::kBiventricular, "biv"}, {Mode::kLvOnly, "lv-only"})
 
 const char* to_string(Termination t) {
   return t == Termination::kOk ? "ok" : t == Termination::kSomeFailed ? "some-therapies-failed" : "baseline-failed";

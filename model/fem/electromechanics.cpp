@@ -37,10 +37,6 @@ std::string BcsPassiveParameters::validate() const {
   return {};
 }
 
-BcsPassive::BcsPassive(const BcsPassiveParameters& p) : p_(p) {
-  if (auto m = p_.validate(); !m.empty()) throw std::invalid_argument("BcsPassive: " + m);
-}
-
 double BcsPassive::energy(const Eigen::Matrix3d& E, const Frame&) const {
   const Eigen::Matrix3d C = Eigen::Matrix3d::Identity() + 2.0 * E;
   const double I1 = C.trace(), I2 = 0.5 * (I1 * I1 - (C * C).trace()), I3 = C.determinant();

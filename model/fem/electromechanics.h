@@ -52,17 +52,13 @@ struct BcsPassiveParameters {
   std::string validate() const;
 };
 
-class BcsPassive final : public Material {
+class BcsPassive final : public MaterialLaw<BcsPassive, BcsPassiveParameters> {
  public:
-  explicit BcsPassive(const BcsPassiveParameters& p);
+  using MaterialLaw::MaterialLaw;
   double energy(const Eigen::Matrix3d& E, const Frame& R) const override;
   void stress(const Eigen::Matrix3d& E, const Frame& R, Eigen::Matrix3d& S, Matrix9d& D) const override;
   void stress_only(const Eigen::Matrix3d& E, const Frame& R, Eigen::Matrix3d& S) const override;
-  std::unique_ptr<Material> clone() const override { return std::make_unique<BcsPassive>(p_); }
   std::string name() const override { return "bcs-passive"; }
-
- private:
-  BcsPassiveParameters p_;
 };
 
 // Where the activation times T_d of the quadrature points come from: every point at 0 (synchronous,
@@ -205,11 +201,7 @@ class LeftVentricle3D final : public SteppableSimulator, public FieldOutput, pub
   std::unique_ptr<Simulator> clone() const override;
 
   std::vector<Channel> state_layout() const override;
-  model::State initial_state(const Eigen::Ref<const Eigen::VectorXd>& theta) override;
-  Status advance(model::State& state, const Eigen::Ref<const Eigen::VectorXd>& theta,
-                 double t_end) override;
-  Eigen::VectorXd sample(const model::State& state,
-                         const Eigen::Ref<const Eigen::VectorXd>& theta) const override;
+  SIGMAHEART_STEPPING_OVERRIDES;
   std::unique_ptr<SteppableSimulator> with_time_step_factor(double factor) const override;
 
   // Activation times [s] at the mesh vertices (ActivationSource::kPrescribed), e.g. from an

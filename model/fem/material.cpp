@@ -74,10 +74,6 @@ std::string GuccioneParameters::validate() const {
   return {};
 }
 
-Guccione::Guccione(const GuccioneParameters& p) : p_(p) {
-  if (auto m = p.validate(); !m.empty()) throw std::invalid_argument(m);
-}
-
 namespace {
 Eigen::Matrix<double, 9, 1> guccione_weights(const GuccioneParameters& p) {
   // Local components ordered (f, s, n) x (f, s, n).
@@ -147,10 +143,6 @@ std::string MooneyRivlinParameters::validate() const {
   return {};
 }
 
-MooneyRivlin::MooneyRivlin(const MooneyRivlinParameters& p) : p_(p) {
-  if (auto m = p.validate(); !m.empty()) throw std::invalid_argument(m);
-}
-
 double MooneyRivlin::energy(const Eigen::Matrix3d& E, const Frame&) const {
   const Eigen::Matrix3d C = Eigen::Matrix3d::Identity() + 2.0 * E;
   const double I1 = C.trace(), I2 = 0.5 * (I1 * I1 - (C * C).trace()), I3 = C.determinant();
@@ -176,10 +168,6 @@ std::string HolzapfelOgdenParameters::validate() const {
   if (!(k > 0)) return "Holzapfel-Ogden switch sharpness k must be positive";
   if (!(kappa >= 0) || std::isinf(kappa)) return "Holzapfel-Ogden kappa must be finite and >= 0 [Pa]";
   return {};
-}
-
-HolzapfelOgden::HolzapfelOgden(const HolzapfelOgdenParameters& p) : p_(p) {
-  if (auto m = p.validate(); !m.empty()) throw std::invalid_argument(m);
 }
 
 namespace {

@@ -12,6 +12,7 @@
 #include <Eigen/Core>
 
 #include <memory>
+#include <stdexcept>
 #include <string>
 
 namespace sigmaheart::model::fem {
@@ -38,6 +39,22 @@ class Material {
   virtual std::string name() const = 0;
 };
 
+// What every law with a parameter struct shares: the constructor keeps the parameters after
+// Parameters::validate() (std::invalid_argument with its message otherwise), clone() copies the
+// law, parameters() returns them. A law derives as `class X final : public MaterialLaw<X, XParameters>`.
+template <class Law, class Parameters>
+class MaterialLaw : public Material {
+ public:
+  explicit MaterialLaw(const Parameters& p) : p_(p) {
+    if (std::string m = p_.validate(); !m.empty()) throw std::invalid_argument(m);
+  }
+  std::unique_ptr<Material> clone() const override { return std::make_unique<Law>(p_); }
+  const Parameters& parameters() const { return p_; }
+
+ protected:
+  Parameters p_;
+};
+
 // Guccione et al. 1991 transversely isotropic law, as in Land et al. 2015 (section 2):
 //   W = C/2 (exp(Q) - 1),
 //   Q = bf E_ff^2 + bt (E_ss^2 + E_nn^2 + E_sn^2 + E_ns^2) + bfs (E_fs^2 + E_sf^2 + E_fn^2 + E_nf^2),
@@ -55,18 +72,15 @@ struct GuccioneParameters {
   std::string validate() const;
 };
 
-class Guccione final : public Material {
+class Guccione final : public MaterialLaw<Guccione, GuccioneParameters> {
  public:
-  explicit Guccione(const GuccioneParameters& p);
+  using MaterialLaw::MaterialLaw;
   double energy(const Eigen::Matrix3d& E, const Frame& R) const override;
   void stress(const Eigen::Matrix3d& E, const Frame& R, Eigen::Matrix3d& S, Matrix9d& D) const override;
-  std::unique_ptr<Material> clone() const override { return std::make_unique<Guccione>(p_); }
   std::string name() const override { return "guccione"; }
-  const GuccioneParameters& parameters() const { return p_; }
 
  private:
   void stress_full(const Eigen::Matrix3d& E, const Frame& R, Eigen::Matrix3d& S, Matrix9d& D) const;
-  GuccioneParameters p_;
 };
 
 // Tensor operators on the row-major vec of 3x3 tensors (vec(A)[3I + J] = A(I, J)), shared by the
@@ -93,17 +107,13 @@ struct MooneyRivlinParameters {
   std::string validate() const;
 };
 
-class MooneyRivlin final : public Material {
+class MooneyRivlin final : public MaterialLaw<MooneyRivlin, MooneyRivlinParameters> {
  public:
-  explicit MooneyRivlin(const MooneyRivlinParameters& p);
+  using MaterialLaw::MaterialLaw;
   double energy(const Eigen::Matrix3d& E, const Frame& R) const override;
   void stress(const Eigen::Matrix3d& E, const Frame& R, Eigen::Matrix3d& S, Matrix9d& D) const override;
   void stress_only(const Eigen::Matrix3d& E, const Frame& R, Eigen::Matrix3d& S) const override;
-  std::unique_ptr<Material> clone() const override { return std::make_unique<MooneyRivlin>(p_); }
   std::string name() const override { return "mooney-rivlin"; }
-
- private:
-  MooneyRivlinParameters p_;
 };
 
 // Modified Holzapfel-Ogden law of the cardiac elastodynamics benchmark (Arostica et al. 2025,
@@ -131,17 +141,12 @@ struct HolzapfelOgdenParameters {
   std::string validate() const;
 };
 
-class HolzapfelOgden final : public Material {
+class HolzapfelOgden final : public MaterialLaw<HolzapfelOgden, HolzapfelOgdenParameters> {
  public:
-  explicit HolzapfelOgden(const HolzapfelOgdenParameters& p);
+  using MaterialLaw::MaterialLaw;
   double energy(const Eigen::Matrix3d& E, const Frame& R) const override;
   void stress(const Eigen::Matrix3d& E, const Frame& R, Eigen::Matrix3d& S, Matrix9d& D) const override;
-  std::unique_ptr<Material> clone() const override { return std::make_unique<HolzapfelOgden>(p_); }
   std::string name() const override { return "holzapfel-ogden"; }
-  const HolzapfelOgdenParameters& parameters() const { return p_; }
-
- private:
-  HolzapfelOgdenParameters p_;
 };
 
 }  // namespace sigmaheart::model::fem

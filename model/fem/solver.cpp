@@ -400,10 +400,14 @@ struct SparseSolver::Impl {
 #ifdef SIGMAHEART_FEM_HAVE_UMFPACK
   Umfpack umf;
 #endif
+  // What the setters give the iterative solver (kept, unused, without hypre): the displacement
+  // unknowns n_u, the mass M_w of Schur::kMass and the coarse space P.
+  int n_u = -1;
+  SparseMatrixInt schur_mass;
+  SparseMatrixInt coarse_given;
 #ifdef SIGMAHEART_FEM_HAVE_HYPRE
   // The iterative solver: K = [A B^T; B C] with A the displacement block (n_u rows), preconditioned
   // through its augmented-Lagrangian form T K with T = [I g B^T W^-1; 0 I] (factorize()).
-  int n_u = -1;
   // The matrix of the last factorize(), row-major: GMRES's products with it gather along rows
   // (a column-major product scatters, and was four fifths of GMRES's own work;
   // experiments/lv3d-solver/NOTES.md, 2026-11-29).
@@ -421,10 +425,8 @@ struct SparseSolver::Impl {
   std::unique_ptr<SparseSolver> exact;
   bool exact_ok = false;
   std::unique_ptr<BoomerAmg> amg_schur;  // on the sparse Schur approximation (Schur::kSparse, kMass)
-  SparseMatrixInt schur_mass;            // M_w of Schur::kMass (set_schur_mass)
-  // The coarse correction (set_coarse_space): P as given, and as used by the last set-up (without
+  // The coarse correction (set_coarse_space): P as used by the last set-up (coarse_given without
   // the Dirichlet rows and the empty columns; coarse false without a usable coarse space).
-  SparseMatrixInt coarse_given;
   SparseMatrixInt coarse_P;
   RowMatrix coarse_Pt;
   RowMatrix coarse_KP;  // K P: the coarse correction's residual r - K z_c = r - (K P) y without a product with K
@@ -502,28 +504,14 @@ SparseSolver::SparseSolver(LinearSolver kind, IterativeOptions iterative)
 
 SparseSolver::~SparseSolver() = default;
 
-void SparseSolver::set_coarse_space(SparseMatrixInt P) {
-#ifdef SIGMAHEART_FEM_HAVE_HYPRE
-  impl_->coarse_given = std::move(P);
-#else
-  (void)P;
-#endif
-}
+void SparseSolver::set_coarse_space(SparseMatrixInt P) { impl_->coarse_given = std::move(P); }
 
-void SparseSolver::set_schur_mass(SparseMatrixInt Mw) {
-#ifdef SIGMAHEART_FEM_HAVE_HYPRE
-  impl_->schur_mass = std::move(Mw);
-#else
-  (void)Mw;
-#endif
-}
+void SparseSolver::set_schur_mass(SparseMatrixInt Mw) { impl_->schur_mass = std::move(Mw); }
 
 void SparseSolver::set_saddle_point(int n_u) {
   if (n_u < 0 || n_u % 3 != 0)
     throw std::invalid_argument("set_saddle_point: n_u must be a non-negative multiple of 3 (got " + std::to_string(n_u) + ")");
-#ifdef SIGMAHEART_FEM_HAVE_HYPRE
   impl_->n_u = n_u;
-#endif
 }
 
 bool SparseSolver::factorize(const SparseMatrixInt& A) {

@@ -324,11 +324,9 @@ double wall_path(double z1, double phi1, double z2, double phi2) {
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
-constexpr std::array<EnumName<ActivationPattern>, 4> kActivationPatternNames{{
+SIGMAHEART_ENUM_TEXT(ActivationPattern, parse_activation_pattern,
     {ActivationPattern::kSynchronous, "synchronous"}, {ActivationPattern::kLbbb, "lbbb"},
-    {ActivationPattern::kPacing, "pacing"}, {ActivationPattern::kExplicit, "explicit"},
-}};
-SIGMAHEART_ENUM_TEXT(ActivationPattern, parse_activation_pattern, kActivationPatternNames)
+    {ActivationPattern::kPacing, "pacing"}, {ActivationPattern::kExplicit, "explicit"})
 
 int RegionalOptions::patches() const {
   return area_shares.empty() ? 17 : static_cast<int>(area_shares.size());

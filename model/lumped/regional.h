@@ -140,16 +140,13 @@ class RegionalVentricle final : public SteppableSimulator {
 
   // y, dy_dt, P_v, P_ar, P_d, c_01..c_(N-1), (e_c, k_c, tau_c) per patch, last_open_valve.
   std::vector<Channel> state_layout() const override;
-  State initial_state(const Eigen::Ref<const Eigen::VectorXd>& theta) override;
-  Status advance(State& state, const Eigen::Ref<const Eigen::VectorXd>& theta,
-                 double t_end) override;
-  Eigen::VectorXd sample(const State& state,
-                         const Eigen::Ref<const Eigen::VectorXd>& theta) const override;
+  SIGMAHEART_STEPPING_OVERRIDES;
 
  private:
-  Status check_theta(const Eigen::Ref<const Eigen::VectorXd>& theta) const;
+  // Backward-Euler steps up to t_end with step cutting, and the checks of run() and advance().
   Status step_to(State& state, const Eigen::Ref<const Eigen::VectorXd>& theta, double t_end,
                  int* newton_iterations, int* step_cuts) const;
+  Status check_theta(const Eigen::Ref<const Eigen::VectorXd>& theta) const;
 
   RegionalOptions options_;
   ParameterSpace parameters_;

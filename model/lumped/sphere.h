@@ -75,11 +75,7 @@ class LumpedSphere final : public SteppableSimulator {
                      Eigen::VectorXd* produce) override;
 
   std::vector<Channel> state_layout() const override;
-  State initial_state(const Eigen::Ref<const Eigen::VectorXd>& theta) override;
-  Status advance(State& state, const Eigen::Ref<const Eigen::VectorXd>& theta,
-                 double t_end) override;
-  Eigen::VectorXd sample(const State& state,
-                         const Eigen::Ref<const Eigen::VectorXd>& theta) const override;
+  SIGMAHEART_STEPPING_OVERRIDES;
 
  private:
   // Size, bounds and option checks shared by run() and advance().

@@ -5,15 +5,15 @@
 namespace sigmaheart::observers {
 namespace {
 
+// EDV, ESV and P_max with correlated volume noise.
 ObservationSet three() {
-  ObservationSet s;
-  s.names = {"EDV", "ESV", "P_max"};
-  s.units = {"m^3", "m^3", "Pa"};
-  s.display_units = {"mL", "mL", "mmHg"};
-  s.y = Eigen::Vector3d(150e-6, 60e-6, 16e3);
-  s.R = Eigen::Vector3d(25e-12, 16e-12, 4e4).asDiagonal();
-  s.R(0, 1) = s.R(1, 0) = 10e-12;
-  return s;
+  Eigen::Matrix3d R = Eigen::Vector3d(25e-12, 16e-12, 4e4).asDiagonal();
+  R(0, 1) = R(1, 0) = 10e-12;
+  return {.names = {"EDV", "ESV", "P_max"},
+          .units = {"m^3", "m^3", "Pa"},
+          .display_units = {"mL", "mL", "mmHg"},
+          .y = Eigen::Vector3d(150e-6, 60e-6, 16e3),
+          .R = R};
 }
 
 TEST(ObservationSet, SelectKeepsTheRequestedOrderAndTheCovarianceBlock) {

@@ -47,11 +47,7 @@ class TwoSegmentModel final : public model::SteppableSimulator {
 
   // V_lv [m^3], P_ar [Pa].
   std::vector<model::Channel> state_layout() const override;
-  model::State initial_state(const Eigen::Ref<const Eigen::VectorXd>& theta) override;
-  model::Status advance(model::State& state, const Eigen::Ref<const Eigen::VectorXd>& theta,
-                        double t_end) override;
-  Eigen::VectorXd sample(const model::State& state,
-                         const Eigen::Ref<const Eigen::VectorXd>& theta) const override;
+  SIGMAHEART_STEPPING_OVERRIDES;
 
  private:
   model::Status check(const Eigen::Ref<const Eigen::VectorXd>& theta) const;

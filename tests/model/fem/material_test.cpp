@@ -77,7 +77,7 @@ TEST(Material, BcsPassiveStressAndTangentMatchFiniteDifferences) {
 // against finite differences at a stretched state (I4f > 1) and at the test strain, and with the
 // fibre in compression (I4f < 1, where the switch chi is small but not zero).
 TEST(Material, HolzapfelOgdenStressAndTangentMatchFiniteDifferences) {
-  check_law(HolzapfelOgden({}));
+  check_law(HolzapfelOgden(HolzapfelOgdenParameters{}));
   HolzapfelOgdenParameters no_penalty;
   no_penalty.kappa = 0.0;
   check_law(HolzapfelOgden(no_penalty));
@@ -90,7 +90,7 @@ TEST(Material, HolzapfelOgdenStressAndTangentMatchFiniteDifferences) {
 }
 
 TEST(Material, HolzapfelOgdenIsStressFreeInTheReferenceAndRejectsBadParameters) {
-  const HolzapfelOgden m({});
+  const HolzapfelOgden m(HolzapfelOgdenParameters{});
   Eigen::Matrix3d S;
   Matrix9d D;
   m.stress(Eigen::Matrix3d::Zero(), test_frame(), S, D);
