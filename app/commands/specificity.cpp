@@ -119,16 +119,12 @@ int run_specificity_command(const StudyOptions& o, CommandContext& ctx) {
                      io::write_text_file(p, [&](std::ostream& f) { f << j.dump(2) << "\n"; });
                    });
   }
-  study.finish();
   if (!summary.failed_cases.empty() && summary.ok()) {
     spdlog::warn("{} of {} calibrations failed and were left out of the statistics (listed above and "
                  "in /failed)", summary.failed_cases.size(), n);
   }
-  if (!summary.ok()) {
-    throw RunFailure("specificity study '" + config.name + "': " + summary.message + "; per-case results in " +
-                     output.string() + study.kept_note());
-  }
-  return kExitOk;
+  return study.end(ctx, summary.ok(),
+                   "specificity study '" + config.name + "': " + summary.message + "; per-case results in");
 }
 
 }  // namespace
