@@ -306,7 +306,7 @@ estimation::UtOptions parse_ut_options(const ConfigNode& node) {
   estimation::UtOptions o;
   node.check_keys({"sigma_points", "kappa", "alpha", "beta", "mode", "max_iterations", "tolerance", "objective_tolerance",
                    "inflation", "sample_scale", "failure_policy", "shrink_factor", "max_retries",
-                   "max_rejections", "bound_margin", "global_start", "threads", "method", "reference",
+                   "max_rejections", "secant_iterations", "geodesic_acceleration", "bound_margin", "global_start", "threads", "method", "reference",
                    "least_squares"});
   o.mode = estimation::UtMode::kMap;  // the default (docs/estimation.md s.3.2)
   if (node.has("sigma_points")) {
@@ -333,6 +333,9 @@ estimation::UtOptions parse_ut_options(const ConfigNode& node) {
   o.shrink_factor = node.optional<double>("shrink_factor", o.shrink_factor);
   o.max_retries = node.optional<int>("max_retries", o.max_retries);
   o.max_rejections = node.optional<int>("max_rejections", o.max_rejections);
+  o.secant_iterations = node.optional<int>("secant_iterations", o.secant_iterations);
+  o.geodesic_acceleration = node.optional<bool>("geodesic_acceleration", o.geodesic_acceleration);
+  if (o.secant_iterations < 0) node["secant_iterations"].fail("expected >= 0 (0: every iteration on sigma points)");
   o.bound_margin = node.optional<double>("bound_margin", o.bound_margin);
   if (node.has("global_start")) o.global_start = parse_global_start(node["global_start"]);
   o.ensemble.threads = node.optional<int>("threads", 0);

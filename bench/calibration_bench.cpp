@@ -17,6 +17,7 @@
 #include <memory>
 #include <string>
 #include <tuple>
+#include <vector>
 
 namespace {
 
@@ -30,14 +31,13 @@ constexpr const char* kCase = "one-fibre-healthy";  // 72 bpm, 30 frames of V_lv
 // it, and the forward model of its estimated parameters.
 struct ForeignProblem {
   explicit ForeignProblem(int parameters, const std::string& case_name = kCase,
-                          const std::string& period = "0.833333")
+                          const std::string& period = "0.833333", std::vector<std::string> overrides = {})
       : config(app::load_config(
             std::string(SIGMAHEART_SOURCE_DIR) + "/experiments/foreign-data/" +
                 (parameters == 5    ? "calibrate-foreign-5.yaml"
                  : parameters == 12 ? "calibrate-foreign-12.yaml"
                                     : "calibrate-foreign.yaml"),
-            {std::string("observations.file=../../configs/data/foreign/") + case_name + ".csv",
-             "period=" + period})),
+            with_case(std::move(overrides), case_name, period))),
         problem(app::parse_calibration_problem(config)),
         simulator(config.simulator.make()),
         forward(*simulator, *problem.observer, problem.prior.names()) {
@@ -49,6 +49,13 @@ struct ForeignProblem {
   std::unique_ptr<model::Simulator> simulator;
   estimation::SimulatorForwardModel forward;
   estimation::EnsembleOptions ensemble;
+
+  static std::vector<std::string> with_case(std::vector<std::string> overrides, const std::string& case_name,
+                                            const std::string& period) {
+    overrides.push_back(std::string("observations.file=../../configs/data/foreign/") + case_name + ".csv");
+    overrides.push_back("period=" + period);
+    return overrides;
+  }
 };
 
 // Args: number of estimated parameters (5, 12 or 14, picking the config); estimator (0: the UT as
@@ -100,6 +107,9 @@ BENCHMARK(BM_CalibrateForeign)
 // wall time, forward runs and iterations, before and after side by side. Args: case (index into
 // kCases); stop (0: the step-only stop of before issue 45, objective_tolerance 0, which also
 // disables the valley finishing step; 1: the shipped config, objective-based stop).
+// Arg version: which config (0: as issue 45 found it and first changed it: star sigma points, no
+// secant iterations, a screen of 32 and 4 local runs, max_beats 120; 1: the shipped one: simplex,
+// secant 8, a screen of 64 and 6 local runs, max_beats 60; experiments/foreign-data/README.md).
 //   build/bench/calibration_bench --benchmark_filter='BM_CalibrateForeignCase/case:1/'
 struct BenchCase {
   const char* name;
@@ -112,7 +122,13 @@ constexpr BenchCase kCases[] = {{"elastance-healthy", "0.923077"},
 
 void BM_CalibrateForeignCase(benchmark::State& state) {
   const BenchCase& c = kCases[state.range(0)];
-  ForeignProblem f(14, c.name, c.period);
+  std::vector<std::string> overrides;
+  if (state.range(2) == 0) {
+    overrides = {"calibration.sigma_points=star", "calibration.secant_iterations=0",
+                 "calibration.global_start.samples=32", "calibration.global_start.keep=4",
+                 "simulator.numerics.max_beats=120"};
+  }
+  ForeignProblem f(14, c.name, c.period, overrides);
   estimation::UtOptions options = f.problem.options;
   options.ensemble = f.ensemble;
   if (state.range(1) == 0) options.objective_tolerance = 0.0;
@@ -125,10 +141,11 @@ void BM_CalibrateForeignCase(benchmark::State& state) {
   state.counters["objective"] = s.objective;
   state.counters["converged"] = s.termination == estimation::UtTermination::kConverged ? 1 : 0;
   state.SetLabel(std::string("UT, ") + c.name + (state.range(1) == 0 ? ", step-only stop, " : ", ") +
+                 (state.range(2) == 0 ? "before (star, 32/4), " : "shipped, ") +
                  estimation::to_string(s.termination));
 }
 BENCHMARK(BM_CalibrateForeignCase)
-    ->ArgNames({"case", "stop"})->ArgsProduct({{0, 1, 2, 3}, {0, 1}})
+    ->ArgNames({"case", "stop", "version"})->ArgsProduct({{0, 1, 2, 3}, {0, 1}, {0, 1}})
     ->Iterations(1)->UseRealTime()->Unit(benchmark::kSecond);
 
 }  // namespace

@@ -100,6 +100,8 @@ std::string UtOptions::validate(int p) const {
     m << "ut calibration: max_retries must be >= 0, got " << max_retries;
   } else if (max_rejections < 0) {
     m << "ut calibration: max_rejections must be >= 0, got " << max_rejections;
+  } else if (secant_iterations < 0) {
+    m << "ut calibration: secant_iterations must be >= 0, got " << secant_iterations;
   } else if (!(bound_margin >= 0 && bound_margin < 1)) {
     m << "ut calibration: bound_margin must lie in [0, 1), got " << bound_margin;
   } else if (!(nis_alpha > 0 && nis_alpha < 0.5)) {
@@ -506,6 +508,9 @@ UtSummary UtCalibration::run_global() {
     st.iterations = static_cast<int>(s.iterations.size());
     st.simulations = s.simulations;
     st.theta = s.theta_of_eta_mean;
+    for (const UtIteration& rec : s.iterations) st.objectives.push_back(rec.objective);
+    st.objectives.push_back(s.objective);
+    st.message = s.message;
     starts.push_back(st);
     const auto rank = [](const UtSummary& x) {
       return std::isfinite(x.objective) ? x.objective : std::numeric_limits<double>::infinity();
@@ -780,8 +785,23 @@ UtSummary UtCalibration::run_local(const Start& start) {
       Eigen::MatrixXd P_post;
       double lambda = 0.0, nu = 2.0;  // the damping of the step taken from this centre
       Eigen::VectorXd warm_c;         // the centre's warm start
+      Eigen::MatrixXd A;              // the slope dz/deta there, whitened, before any channel weights
+      Eigen::VectorXd sw;             // the channel weights' square roots per observation (1: none)
     };
     std::optional<Linearisation> lin;
+    // Secant iterations (options_.secant_iterations, docs/estimation.md s.3.3.2): after an accepted
+    // step whose gain ratio says the linear model held (rho >= kSecantTrust), the next slope is
+    // the last one with Broyden's rank-one correction along the step, from the new centre's own
+    // run: A+ = A + (dz - A d) (W d)^T / (d^T W d), W = diag(1 / sigma0^2), the update of least
+    // change in the prior-scaled norm (Broyden 1965, Math Comp 19:577; in Levenberg-Marquardt:
+    // Madsen, Nielsen & Tingleff 2004, "Methods for non-linear least squares problems", IMM DTU,
+    // s.3.4). A candidate the secant slope proposes that Phi rejects, and every stop, is decided
+    // again on sigma points at the same centre, so the estimate, its covariance and the
+    // convergence claim always come from a full statistical linearisation.
+    constexpr double kSecantTrust = 0.25;
+    double secant_trust = 0.0;  // rho of the step that reached this centre (0: sample)
+    int secant_run = 0;         // secant iterations since the last sampled one
+    bool resampling = false;    // this iteration samples the centre a secant iteration stopped at
     auto finish_valley = [&](int it, UtIteration& rec) {
       const Eigen::VectorXd& e1 = summary.iterations.back().eta_center;
       const Eigen::VectorXd& e0 = summary.iterations[summary.iterations.size() - 2].eta_center;
@@ -808,6 +828,7 @@ UtSummary UtCalibration::run_local(const Start& start) {
           P_c = lin ? lin->P_post : P_c;
           relinearisations = 0;
           valley_tried = false;
+          secant_trust = 0.0;  // a long extrapolation: sample the slope there
           return true;
         }
       }
@@ -825,19 +846,51 @@ UtSummary UtCalibration::run_local(const Start& start) {
       rec.iteration = it;
       rec.center_fit = fit_c;
       rec.objective = phi_c;
-      phi_history.push_back(phi_c);
+      if (!resampling) phi_history.push_back(phi_c);  // a centre's Phi once, however often sampled
+      resampling = false;
       Eigen::MatrixXd H, P_post;
       Eigen::VectorXd g, eta_gn;
-      if (sample(it, eta_c, P_c, rec, false, lin.has_value(), &fit_c.z, warm_c)) {
-        const Moments mo = moments(rec);
+      Eigen::MatrixXd A_slope;  // m x p, whitened
+      bool returned = false;    // back at the last linearised centre: sigma points here failed
+      bool use_secant = lin && secant_trust >= kSecantTrust && secant_run < options_.secant_iterations;
+      secant_trust = 0.0;
+      if (use_secant) {
+        // Only over a step of at least sample_scale standard deviations of the covariance the
+        // last sigma points sampled (their own scale): over a shorter one the difference of two
+        // runs is dominated by the forward model's tolerance (a periodic state to 1e-6), and the
+        // corrected slope by that noise over |d|.
+        const Eigen::VectorXd d = eta_c - lin->eta_c;
+        const Eigen::VectorXd wd = d.cwiseQuotient(sigma0.cwiseProduct(sigma0));
+        const Eigen::VectorXd dz = Lt.solve(fit_c.z - lin->fit_c.z);
+        A_slope = lin->A + (dz - lin->A * d) * wd.transpose() / d.dot(wd);
+        const double length = std::sqrt(d.dot(Eigen::LLT<Eigen::MatrixXd>(lin->P_c).solve(d)));
+        use_secant = length >= options_.sample_scale && A_slope.allFinite();
+        if (!use_secant) A_slope.resize(0, 0);
+      }
+      if (use_secant) {
+        rec.secant = true;
+        rec.attempts = 0;
+        rec.spread_factor = 0.0;
+        rec.eta_center = eta_c;
+        rec.P_center = P_c;
+        rec.eta_members.resize(0, p);
+        rec.theta_members.resize(0, p);
+        rec.Z.resize(0, m);
+        ++secant_run;
+      } else if (sample(it, eta_c, P_c, rec, false, lin.has_value(), &fit_c.z, warm_c)) {
         // z ~ A eta + b over the sigma points of the current posterior approximation.
-        Eigen::MatrixXd A = Eigen::LLT<Eigen::MatrixXd>(P_c).solve(mo.Ptz).transpose();  // m x p
+        A_slope = Eigen::LLT<Eigen::MatrixXd>(P_c).solve(moments(rec).Ptz).transpose();
+        secant_run = 0;
+      }
+      if (A_slope.size() > 0) {
+        Eigen::MatrixXd A = A_slope;
         Eigen::VectorXd rw = yw - Lt.solve(fit_c.z);  // whitened residual at the centre
         const Eigen::VectorXd rw_stated = rw;
+        Eigen::VectorXd sw = Eigen::VectorXd::Ones(m);
         if (options_.noise_scale) {
           // Gauss-Newton on the marginal over the channel scales: the Gaussian step with each
           // channel's rows weighted by w_c = E[1 / s_c^2 | r_c] at the centre (noise_scale.h).
-          const Eigen::VectorXd sw = observation_weights(
+          sw = observation_weights(
               noise_scale_posterior(*options_.noise_scale, objective.groups, rw), objective.groups).cwiseSqrt();
           A = sw.asDiagonal() * A;
           rw = rw.cwiseProduct(sw);
@@ -854,17 +907,26 @@ UtSummary UtCalibration::run_local(const Start& start) {
           break;
         }
         const Eigen::MatrixXd Sc = A * P_c * A.transpose() + Eigen::MatrixXd::Identity(m, m);
-        rec.z_bar = L * mo.zbar;
+        // The moments of the linearised model over P_c (the sigma points' own for a sampled slope,
+        // up to their second-order terms in z_bar and P_zz).
+        rec.z_bar = fit_c.z;
         rec.innovation = L * rw_stated;
         rec.nis = rw.dot(Sc.ldlt().solve(rw));
-        rec.P_zz = L * mo.Pzz * L.transpose();
-        rec.P_tz = mo.Ptz * L.transpose();
+        if (!rec.secant) {
+          const Moments mo = moments(rec);
+          rec.z_bar = L * mo.zbar;
+          rec.P_zz = L * mo.Pzz * L.transpose();
+          rec.P_tz = mo.Ptz * L.transpose();
+        } else {
+          rec.P_zz = L * A_slope * P_c * A_slope.transpose() * L.transpose();
+          rec.P_tz = P_c * A_slope.transpose() * L.transpose();
+        }
         rec.gain = Lt.transpose().solve(Kw.transpose()).transpose();
         rec.P = P_post;
         // Levenberg-Marquardt on the linearised Phi: H d = g with H = A^T A + (1 + lambda) P0^-1.
         H = A.transpose() * A + P0inv;
         g = A.transpose() * rw - P0inv * (eta_c - eta0);
-        lin = Linearisation{rec, eta_c, fit_c, phi_c, P_c, H, g, eta_gn, P_post, lambda, nu, warm_c};
+        lin = Linearisation{rec, eta_c, fit_c, phi_c, P_c, H, g, eta_gn, P_post, lambda, nu, warm_c, A_slope, sw};
       } else if (!gave_up.empty() && lin) {
         // Sigma points at this centre still fail after the shrink retries: the step that reached
         // it is rejected like a failed candidate (back to the last linearised centre, lambda
@@ -891,6 +953,7 @@ UtSummary UtCalibration::run_local(const Start& start) {
         P_c = lin->P_c;
         lin->rec.rejected += 1;
         rec = lin->rec;
+        returned = true;
         rec.iteration = it;
         H = lin->H;
         g = lin->g;
@@ -918,7 +981,22 @@ UtSummary UtCalibration::run_local(const Start& start) {
                              phi_history[n_phi - 1 - kStall] - phi_c < kNegligibleDecrease &&
                              std::all_of(summary.iterations.end() - kStall, summary.iterations.end(),
                                          [&](const UtIteration& earlier) { return earlier.step < options_.tolerance; });
+        // A stop is decided on sigma points: a secant iteration that would stop samples first,
+        // unless it is the centre the run returned to because sigma points failed around the
+        // centre after it (sampling there again would only return here: the stop stands, said).
+        const bool defer_stop = rec.secant && !returned;
+        const std::string secant_note =
+            rec.secant ? "; on a secant slope (the sigma points after this centre failed)" : "";
+        auto resample_here = [&]() {
+          rec.eta_mean = eta_c;
+          secant_trust = 0.0;
+          resampling = true;
+        };
         if (rec.step < options_.tolerance && (gn_decrease < kNegligibleDecrease || stalled)) {
+          if (defer_stop) {
+            resample_here();
+            break;
+          }
           rec.eta_mean = eta_c;
           summary.termination = UtTermination::kConverged;
           if (gn_decrease >= kNegligibleDecrease) {
@@ -927,6 +1005,12 @@ UtSummary UtCalibration::run_local(const Start& start) {
                               format_number(phi_history[n_phi - 1 - kStall] - phi_c) +
                               " with steps below the tolerance, where the linearised Phi promised " +
                               format_number(gn_decrease);
+          }
+          if (rec.secant) {
+            summary.message = (summary.message.empty() ? "converged (last step " + format_number(rec.step) +
+                                                             " prior stds)"
+                                                       : summary.message) +
+                              secant_note;
           }
           done = true;
           break;
@@ -940,6 +1024,10 @@ UtSummary UtCalibration::run_local(const Start& start) {
             valley_tried = true;
             if (finish_valley(it, rec)) break;
           }
+          if (defer_stop) {
+            resample_here();
+            break;
+          }
           rec.eta_mean = eta_c;
           summary.termination = UtTermination::kConverged;
           summary.message = "objective: Phi fell by " + format_number(phi_history[n_phi - 3] - phi_c) +
@@ -949,18 +1037,39 @@ UtSummary UtCalibration::run_local(const Start& start) {
                             format_number(gn_decrease) +
                             (summary.extrapolations > 0
                                  ? "; " + std::to_string(summary.extrapolations) + " valley finishing step(s)"
-                                 : std::string());
+                                 : std::string()) +
+                            secant_note;
           done = true;
           break;
         }
-        const Eigen::VectorXd eta_n = eta_c + d;
+        Eigen::VectorXd step = d;
+        if (options_.geodesic_acceleration) {
+          // Geodesic acceleration (Transtrum & Sethna 2012, arXiv:1201.5885, eqs. 14-16; Transtrum,
+          // Machta & Sethna 2011, Phys Rev E 83:036701): the second-order correction of the step
+          // along the curved valley of a sloppy model, a = -(H + lambda P0^-1)^-1 A^T h_vv, with the
+          // model's second directional derivative along d from one run at eta_c + delta d,
+          // h_vv = (2 / delta) ((h(eta_c + delta d) - h(eta_c)) / delta - A d); the prior term is
+          // quadratic and adds none. Taken as d + a / 2 while |a| <= kAcceleration x |d| / 2
+          // (prior-scaled norms: the truncated expansion holds), else the plain step d.
+          constexpr double kDelta = 0.1, kAcceleration = 0.75;
+          UtFit fit_v = run_one(eta_c + kDelta * d, it, warm_c);
+          if (fit_v.status.ok()) {
+            const Eigen::VectorXd hvv =
+                (2.0 / kDelta) * (Lt.solve(fit_v.z - fit_c.z) / kDelta - lin->A * d).cwiseProduct(lin->sw);
+            const Eigen::VectorXd a =
+                -(H + lambda * P0inv).ldlt().solve((lin->sw.asDiagonal() * lin->A).transpose() * hvv);
+            const double ratio = 2.0 * a.cwiseQuotient(sigma0).norm() / d.cwiseQuotient(sigma0).norm();
+            if (a.allFinite() && ratio <= kAcceleration) step = d + 0.5 * a;
+          }
+        }
+        const Eigen::VectorXd eta_n = eta_c + step;
         current_attempt = candidate;
         Eigen::VectorXd warm_n;
         UtFit fit_n = run_one(eta_n, it, warm_c, warm_starts ? &warm_n : nullptr);
         const double phi_n = objective.phi(fit_n, eta_n);
         if (std::isfinite(phi_n) && phi_n < phi_c) {
           // Gain ratio of the actual to the predicted decrease (Nielsen 1999, eq. 2.3 update).
-          const double predicted = g.dot(d) - 0.5 * d.dot(H * d);
+          const double predicted = g.dot(step) - 0.5 * step.dot(H * step);
           const double rho = predicted > 0 ? (phi_c - phi_n) / predicted : 0.0;
           lin->lambda = lambda;  // the damping of this step, raised if the step is reverted
           lin->nu = nu;
@@ -969,6 +1078,7 @@ UtSummary UtCalibration::run_local(const Start& start) {
             if (lambda < 1e-3) lambda = 0.0;
           }
           nu = 2.0;
+          secant_trust = rho;
           rec.eta_mean = eta_n;
           eta_c = eta_n;
           fit_c = std::move(fit_n);
@@ -985,6 +1095,16 @@ UtSummary UtCalibration::run_local(const Start& start) {
         action.misfit = phi_n;
         action.previous_misfit = phi_c;
         if (!fit_n.status.ok()) action.failed_members = {-1};
+        if (rec.secant) {
+          // The secant slope, not the damping, is the suspect: sample at this centre, lambda kept.
+          action.spread_factor = lambda;
+          summary.actions.push_back(action);
+          summary.rejected_steps += 1;
+          rec.rejected += 1;
+          log_debug("UT: {} (secant slope: sampled again)", action.describe());
+          resample_here();
+          break;
+        }
         lambda = lambda == 0.0 ? 1.0 : lambda * nu;
         nu *= 2.0;
         action.spread_factor = lambda;

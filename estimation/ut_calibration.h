@@ -26,6 +26,10 @@
 //    times in a row), then ends the run (kDiverged). Converged: the damped step is below tolerance
 //    and the undamped one promises a decrease of Phi below 0.5 (1 in chi^2). P+ at the last linearisation is the
 //    Gauss-Newton Laplace covariance (P0^-1 + J^T R^-1 J)^-1 as sample_scale -> 0.
+//    Options (docs/estimation.md s.3.3.2): secant_iterations linearises some iterations by
+//    Broyden's update of A from the accepted step's own run (every stop is decided on sigma
+//    points); geodesic_acceleration adds the second-order correction along the step.
+//    Neither changes the fixed point.
 //  - kOneShot: one update from the prior, z_ref = z_bar (the paper's method).
 //  - kIterateKeepSpread: re-centre at eta+ and sample again with the PRIOR covariance P0; z_ref =
 //    h(eta_c). No prior term: its fixed point fits the data (a maximum-likelihood point) and its P+
@@ -157,6 +161,14 @@ struct UtOptions {
   std::optional<NoiseScalePrior> noise_scale;
   // kMap: rejected (damped) candidates allowed in one iteration before the run ends kDiverged.
   int max_rejections = 8;
+  // kMap: up to this many iterations in a row linearised by a secant (Broyden) update of the last
+  // linearisation from the accepted step's own run instead of by a new set of sigma points
+  // (docs/estimation.md s.3.3.2); a rejected secant step, a poor gain ratio and every stop are
+  // re-linearised on sigma points first, so no result rests on a secant slope. 0: off.
+  int secant_iterations = 0;
+  // kMap: add the geodesic acceleration to each damped step (one more run per candidate;
+  // docs/estimation.md s.3.3.2): steps that follow a curved valley instead of creeping along it.
+  bool geodesic_acceleration = false;
   // An estimate closer to a bound than bound_margin x (the prior's distance to it) is kAtBound.
   double bound_margin = 1e-3;
   // kOneShot: the update is not trusted when its NIS exceeds the chi2_m quantile of 1 - nis_alpha.
@@ -243,6 +255,7 @@ struct UtIteration {
   double step = 0.0;                // max |eta+_j - eta_c,j| / sigma0_j
   double objective = 0.0;           // Phi at eta_center (kMap; data misfit in the other modes)
   bool extrapolated = false;        // kMap: the centre came from the valley's finishing step
+  bool secant = false;              // kMap: linearised by the secant update (no members ran)
   double lambda = 0.0;              // kMap: damping of the accepted step
   int rejected = 0;                 // kMap: candidates rejected in this iteration
 };
@@ -256,6 +269,8 @@ struct UtStart {
   int iterations = 0;
   int simulations = 0;
   Eigen::VectorXd theta;            // the run's estimate, SI
+  std::vector<double> objectives;   // Phi at the start of each iteration, then at the estimate
+  std::string message;              // how the run ended, in words
 };
 
 

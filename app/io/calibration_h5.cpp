@@ -183,6 +183,7 @@ void write_calibration_h5(const std::filesystem::path& path, const CalibrationRe
     h5.set_attribute(g, "nis", it.nis);
     h5.set_attribute(g, "objective", it.objective);
     h5.set_attribute(g, "lambda", it.lambda);
+    h5.set_attribute(g, "secant", it.secant ? 1 : 0);  // linearised by the secant update: no members
     h5.set_attribute(g, "rejected", it.rejected);
   }
   if (!summary.starts.empty()) {

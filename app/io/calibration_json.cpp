@@ -74,6 +74,8 @@ void write_calibration_json(const std::filesystem::path& path, const std::string
     s["status"] = estimation::to_string(st.termination);
     s["iterations"] = st.iterations;
     s["simulations"] = st.simulations;
+    s["objective_by_iteration"] = st.objectives;
+    s["message"] = st.message;
     j["starts"].push_back(s);
   }
   for (size_t k = 0; k < summary.names.size(); ++k) {

@@ -526,6 +526,92 @@ TEST(UtCalibration, MapModeLandsOnTheMapPointAndItsLaplaceCovariance) {
   }
 }
 
+TEST(UtCalibration, SecantIterationsLandOnTheSameMapPointAndLaplaceCovarianceWithFewerRuns) {
+  // Broyden's update of the slope between sampled linearisations (secant_iterations): the stop is
+  // decided on sigma points, so the estimate and P+ are the MAP and its Laplace covariance as
+  // without it; the runs fall because most iterations cost their one candidate run.
+  for (const NonlinearCase& c : nonlinear_cases()) {
+    const Eigen::MatrixXd R = c.r.array().square().matrix().asDiagonal();
+    const Exact exact = newton_map(c.h, c.J, c.m, c.m0, c.s0, c.y, R, c.m0);
+    UtOptions opt = map_options({SigmaRule::kCanonical});
+    opt.sample_scale = 1e-4;
+    const UtSummary sampled =
+        UtCalibration(FunctionModel(c.p, c.m, c.h), identity_parameters(c.m0, c.s0), observations(c.y, R), opt)
+            .run();
+    opt.secant_iterations = 4;
+    const UtSummary s =
+        UtCalibration(FunctionModel(c.p, c.m, c.h), identity_parameters(c.m0, c.s0), observations(c.y, R), opt)
+            .run();
+    ASSERT_EQ(s.termination, UtTermination::kConverged) << c.name << ": " << s.message;
+    const double mean_error = (s.eta_mean - exact.map).cwiseAbs().maxCoeff();
+    const double cov_error = (s.eta_covariance - exact.laplace).cwiseAbs().maxCoeff() /
+                             exact.laplace.cwiseAbs().maxCoeff();
+    const auto secant = std::count_if(s.iterations.begin(), s.iterations.end(),
+                                      [](const UtIteration& it) { return it.secant; });
+    std::printf("%s, secant: |eta - MAP| = %.3g, |P - Laplace| / |Laplace| = %.3g, %zu iterations (%td secant), "
+                "%d runs; sampled only: %zu iterations, %d runs\n",
+                c.name, mean_error, cov_error, s.iterations.size(), secant, s.simulations,
+                sampled.iterations.size(), sampled.simulations);
+    EXPECT_LT(mean_error, 1e-4) << c.name;
+    EXPECT_LT(cov_error, 1e-4) << c.name;
+    EXPECT_GT(secant, 0) << c.name;
+    EXPECT_FALSE(s.iterations.back().secant) << c.name << ": the stop was decided on a secant slope";
+    EXPECT_EQ(s.iterations.back().theta_members.rows(), 2 * c.p) << c.name;
+    // A sampled iteration costs 2p runs here, a secant one 1: the saving needs p > 2 (with 2
+    // parameters the two cost about the same: 44 and 40 runs).
+    if (c.p > 2) EXPECT_LT(s.simulations, sampled.simulations) << c.name;
+    for (size_t k = 1; k < s.iterations.size(); ++k) {
+      EXPECT_LE(s.iterations[k].objective, s.iterations[k - 1].objective) << c.name << " " << k;
+    }
+  }
+}
+
+TEST(UtCalibration, GeodesicAccelerationKeepsTheMapPointAndFollowsACurvedValleyInFewerIterations) {
+  // The acceleration changes the path, not the fixed point: the same MAP and Laplace covariance
+  // on the two exact cases.
+  for (const NonlinearCase& c : nonlinear_cases()) {
+    const Eigen::MatrixXd R = c.r.array().square().matrix().asDiagonal();
+    const Exact exact = newton_map(c.h, c.J, c.m, c.m0, c.s0, c.y, R, c.m0);
+    UtOptions opt = map_options({SigmaRule::kCanonical});
+    opt.sample_scale = 1e-4;
+    opt.geodesic_acceleration = true;
+    const UtSummary s =
+        UtCalibration(FunctionModel(c.p, c.m, c.h), identity_parameters(c.m0, c.s0), observations(c.y, R), opt)
+            .run();
+    ASSERT_EQ(s.termination, UtTermination::kConverged) << c.name << ": " << s.message;
+    EXPECT_LT((s.eta_mean - exact.map).cwiseAbs().maxCoeff(), 1e-4) << c.name;
+    EXPECT_LT((s.eta_covariance - exact.laplace).cwiseAbs().maxCoeff() / exact.laplace.cwiseAbs().maxCoeff(), 1e-4)
+        << c.name;
+  }
+  // Rosenbrock's valley as residuals (z = (10 (t1 - t0^2), t0), y = (0, 1); Transtrum & Sethna
+  // 2012, s.5): from (-1.2, 1) damped Gauss-Newton creeps round the parabola t1 = t0^2.
+  const Map rosenbrock = [](const Eigen::VectorXd& t, Eigen::Ref<Eigen::VectorXd> z) {
+    z << 10.0 * (t(1) - t(0) * t(0)), t(0);
+    return model::Status::Ok();
+  };
+  auto run = [&](bool accelerate) {
+    UtOptions opt = map_options({SigmaRule::kCanonical});
+    opt.sample_scale = 1e-4;
+    opt.tolerance = 1e-8;
+    opt.geodesic_acceleration = accelerate;
+    Prior prior = identity_parameters(Eigen::Vector2d(-1.2, 1.0), Eigen::Vector2d(100.0, 100.0));
+    return UtCalibration(FunctionModel(2, 2, rosenbrock), prior,
+                         observations(Eigen::Vector2d(0.0, 1.0), Eigen::Matrix2d::Identity()), opt)
+        .run();
+  };
+  const UtSummary plain = run(false), accelerated = run(true);
+  std::printf("Rosenbrock: plain %zu iterations, %d runs, %d rejected; accelerated %zu iterations, %d runs, "
+              "%d rejected\n",
+              plain.iterations.size(), plain.simulations, plain.rejected_steps, accelerated.iterations.size(),
+              accelerated.simulations, accelerated.rejected_steps);
+  ASSERT_EQ(plain.termination, UtTermination::kConverged) << plain.message;
+  ASSERT_EQ(accelerated.termination, UtTermination::kConverged) << accelerated.message;
+  // The minimum is (1, 1) up to the weak prior's pull (std 100: ~1e-4).
+  EXPECT_LT((accelerated.eta_mean - Eigen::Vector2d(1.0, 1.0)).cwiseAbs().maxCoeff(), 1e-3);
+  EXPECT_LT((accelerated.eta_mean - plain.eta_mean).cwiseAbs().maxCoeff(), 1e-6);
+  EXPECT_LT(accelerated.iterations.size(), plain.iterations.size());
+}
+
 TEST(UtCalibration, MapModeRejectsAFailedCandidateAndDampsInsteadOfAborting) {
   // z = exp(t): the undamped first step from 0 overshoots to ~2.2 where the model fails (t > 1.6);
   // the damped step lands short of it and the run goes on to the MAP.

@@ -1,5 +1,5 @@
 // The targets of issue 11 on the foreign-data bench (experiments/foreign-data/README.md,
-// "Calibrating the foreign cases"): every one of the 8 issue-11 foreign cases, calibrated by the UT with the
+// "Calibrating the foreign cases"): every one of the 16 foreign cases, calibrated by the UT with the
 // shipped config experiments/foreign-data/calibrate-foreign.yaml, must reach a volume mean relative
 // error under 5 %, a pressure RMS under 8 % of the observed peak, a MAP objective not above the
 // prior's, a status "converged", and an objective within 1.2 times that of the multi-start Ceres
@@ -36,11 +36,10 @@ struct ForeignCase {
 std::vector<ForeignCase> foreign_cases() {
   std::vector<ForeignCase> out;
   for (const auto& c : YAML::LoadFile(kDir + "configs/data/foreign/cases.yaml")["cases"]) {
-    // The eight cases of issue 11 (elastance and one-fibre phenotypes, 30 frames): the Mooney-Rivlin
-    // family and the harder acquisitions of issue 45 are measured by experiments/foreign-data/run
-    // (12 of 16 meet these targets; README "Outcome (issue 45)"), not asserted here.
-    const std::string model = c["model"].as<std::string>();
-    if (model == "mooney-rivlin" || c["acquisition"]) continue;
+    // All 16 cases: the eight of issue 11 (elastance and one-fibre phenotypes, 30 frames), the
+    // Mooney-Rivlin family and the harder acquisitions of issue 45. Not every case meets the
+    // targets yet (experiments/foreign-data/README.md, "Outcome (issue 45)": the misses and why);
+    // this test fails on those until they do.
     out.push_back({c["name"].as<std::string>(), c["period"].as<double>(), c["noise"]["V_lv"].as<double>(),
                    c["noise"]["P_lv"].as<double>()});
   }
