@@ -851,6 +851,7 @@ UtSummary UtCalibration::run_local(const Start& start) {
       Eigen::MatrixXd H, P_post;
       Eigen::VectorXd g, eta_gn;
       Eigen::MatrixXd A_slope;  // m x p, whitened
+      std::optional<Moments> mo;  // of the sigma points, when this iteration sampled them
       bool returned = false;    // back at the last linearised centre: sigma points here failed
       bool use_secant = lin && secant_trust >= kSecantTrust && secant_run < options_.secant_iterations;
       secant_trust = 0.0;
@@ -860,11 +861,12 @@ UtSummary UtCalibration::run_local(const Start& start) {
         // runs is dominated by the forward model's tolerance (a periodic state to 1e-6), and the
         // corrected slope by that noise over |d|.
         const Eigen::VectorXd d = eta_c - lin->eta_c;
-        const Eigen::VectorXd wd = d.cwiseQuotient(sigma0.cwiseProduct(sigma0));
-        const Eigen::VectorXd dz = Lt.solve(fit_c.z - lin->fit_c.z);
-        A_slope = lin->A + (dz - lin->A * d) * wd.transpose() / d.dot(wd);
         const double length = std::sqrt(d.dot(Eigen::LLT<Eigen::MatrixXd>(lin->P_c).solve(d)));
-        use_secant = length >= options_.sample_scale && A_slope.allFinite();
+        if (length >= options_.sample_scale) {
+          const Eigen::VectorXd wd = d.cwiseQuotient(sigma0.cwiseProduct(sigma0));
+          A_slope = lin->A + (Lt.solve(fit_c.z - lin->fit_c.z) - lin->A * d) * wd.transpose() / d.dot(wd);
+        }
+        use_secant = A_slope.size() > 0 && A_slope.allFinite();
         if (!use_secant) A_slope.resize(0, 0);
       }
       if (use_secant) {
@@ -879,7 +881,8 @@ UtSummary UtCalibration::run_local(const Start& start) {
         ++secant_run;
       } else if (sample(it, eta_c, P_c, rec, false, lin.has_value(), &fit_c.z, warm_c)) {
         // z ~ A eta + b over the sigma points of the current posterior approximation.
-        A_slope = Eigen::LLT<Eigen::MatrixXd>(P_c).solve(moments(rec).Ptz).transpose();
+        mo = moments(rec);
+        A_slope = Eigen::LLT<Eigen::MatrixXd>(P_c).solve(mo->Ptz).transpose();
         secant_run = 0;
       }
       if (A_slope.size() > 0) {
@@ -912,11 +915,10 @@ UtSummary UtCalibration::run_local(const Start& start) {
         rec.z_bar = fit_c.z;
         rec.innovation = L * rw_stated;
         rec.nis = rw.dot(Sc.ldlt().solve(rw));
-        if (!rec.secant) {
-          const Moments mo = moments(rec);
-          rec.z_bar = L * mo.zbar;
-          rec.P_zz = L * mo.Pzz * L.transpose();
-          rec.P_tz = mo.Ptz * L.transpose();
+        if (mo) {
+          rec.z_bar = L * mo->zbar;
+          rec.P_zz = L * mo->Pzz * L.transpose();
+          rec.P_tz = mo->Ptz * L.transpose();
         } else {
           rec.P_zz = L * A_slope * P_c * A_slope.transpose() * L.transpose();
           rec.P_tz = P_c * A_slope.transpose() * L.transpose();

@@ -497,31 +497,47 @@ std::vector<NonlinearCase> nonlinear_cases() {
   return out;
 }
 
+// One exact nonlinear case calibrated in mode map with `opt` (canonical points at sample_scale
+// 1e-4 unless opt says otherwise): the run, and its distance to the MAP point and (relative) to the
+// Laplace covariance of newton_map.
+struct AgainstExact {
+  UtSummary s;
+  double mean_error = 0.0, cov_error = 0.0;
+};
+AgainstExact run_against_exact(const NonlinearCase& c, const UtOptions& opt) {
+  const Eigen::MatrixXd R = c.r.array().square().matrix().asDiagonal();
+  const Exact exact = newton_map(c.h, c.J, c.m, c.m0, c.s0, c.y, R, c.m0);
+  AgainstExact out;
+  out.s = UtCalibration(FunctionModel(c.p, c.m, c.h), identity_parameters(c.m0, c.s0), observations(c.y, R), opt).run();
+  out.mean_error = (out.s.eta_mean - exact.map).cwiseAbs().maxCoeff();
+  out.cov_error = (out.s.eta_covariance - exact.laplace).cwiseAbs().maxCoeff() / exact.laplace.cwiseAbs().maxCoeff();
+  return out;
+}
+UtOptions exact_map_options() {
+  UtOptions opt = map_options({SigmaRule::kCanonical});
+  opt.sample_scale = 1e-4;
+  return opt;
+}
+// Accepted centres never raise the objective.
+void expect_objective_never_rises(const UtSummary& s, const char* name) {
+  for (size_t k = 1; k < s.iterations.size(); ++k) {
+    EXPECT_LE(s.iterations[k].objective, s.iterations[k - 1].objective) << name << " " << k;
+  }
+}
+
 TEST(UtCalibration, MapModeLandsOnTheMapPointAndItsLaplaceCovariance) {
   // sample_scale 1e-4 with the symmetric canonical rule: the statistical slope is the Jacobian
   // to O(1e-8) (central differences), so the fixed point is the MAP and P+ the Laplace form.
   for (const NonlinearCase& c : nonlinear_cases()) {
-    const Eigen::MatrixXd R = c.r.array().square().matrix().asDiagonal();
-    const Exact exact = newton_map(c.h, c.J, c.m, c.m0, c.s0, c.y, R, c.m0);
-    UtOptions opt = map_options({SigmaRule::kCanonical});
-    opt.sample_scale = 1e-4;
-    const UtSummary s =
-        UtCalibration(FunctionModel(c.p, c.m, c.h), identity_parameters(c.m0, c.s0), observations(c.y, R), opt)
-            .run();
+    const auto [s, mean_error, cov_error] = run_against_exact(c, exact_map_options());
     ASSERT_EQ(s.termination, UtTermination::kConverged) << c.name << ": " << s.message;
-    const double mean_error = (s.eta_mean - exact.map).cwiseAbs().maxCoeff();
-    const double cov_error = (s.eta_covariance - exact.laplace).cwiseAbs().maxCoeff() /
-                             exact.laplace.cwiseAbs().maxCoeff();
     EXPECT_LT(mean_error, 1e-4) << c.name;
     EXPECT_LT(cov_error, 1e-4) << c.name;
     RecordProperty(std::string(c.name) + "_map_error", std::to_string(mean_error));
     RecordProperty(std::string(c.name) + "_covariance_relative_error", std::to_string(cov_error));
     std::printf("%s: |eta - MAP| = %.3g, |P - Laplace| / |Laplace| = %.3g, %zu iterations, %d runs\n",
                 c.name, mean_error, cov_error, s.iterations.size(), s.simulations);
-    // Accepted centres never raise the objective.
-    for (size_t k = 1; k < s.iterations.size(); ++k) {
-      EXPECT_LE(s.iterations[k].objective, s.iterations[k - 1].objective) << c.name << " " << k;
-    }
+    expect_objective_never_rises(s, c.name);
     EXPECT_LE(s.objective, s.objective_prior);
   }
 }
@@ -531,21 +547,11 @@ TEST(UtCalibration, SecantIterationsLandOnTheSameMapPointAndLaplaceCovarianceWit
   // decided on sigma points, so the estimate and P+ are the MAP and its Laplace covariance as
   // without it; the runs fall because most iterations cost their one candidate run.
   for (const NonlinearCase& c : nonlinear_cases()) {
-    const Eigen::MatrixXd R = c.r.array().square().matrix().asDiagonal();
-    const Exact exact = newton_map(c.h, c.J, c.m, c.m0, c.s0, c.y, R, c.m0);
-    UtOptions opt = map_options({SigmaRule::kCanonical});
-    opt.sample_scale = 1e-4;
-    const UtSummary sampled =
-        UtCalibration(FunctionModel(c.p, c.m, c.h), identity_parameters(c.m0, c.s0), observations(c.y, R), opt)
-            .run();
+    UtOptions opt = exact_map_options();
+    const UtSummary sampled = run_against_exact(c, opt).s;
     opt.secant_iterations = 4;
-    const UtSummary s =
-        UtCalibration(FunctionModel(c.p, c.m, c.h), identity_parameters(c.m0, c.s0), observations(c.y, R), opt)
-            .run();
+    const auto [s, mean_error, cov_error] = run_against_exact(c, opt);
     ASSERT_EQ(s.termination, UtTermination::kConverged) << c.name << ": " << s.message;
-    const double mean_error = (s.eta_mean - exact.map).cwiseAbs().maxCoeff();
-    const double cov_error = (s.eta_covariance - exact.laplace).cwiseAbs().maxCoeff() /
-                             exact.laplace.cwiseAbs().maxCoeff();
     const auto secant = std::count_if(s.iterations.begin(), s.iterations.end(),
                                       [](const UtIteration& it) { return it.secant; });
     std::printf("%s, secant: |eta - MAP| = %.3g, |P - Laplace| / |Laplace| = %.3g, %zu iterations (%td secant), "
@@ -560,9 +566,7 @@ TEST(UtCalibration, SecantIterationsLandOnTheSameMapPointAndLaplaceCovarianceWit
     // A sampled iteration costs 2p runs here, a secant one 1: the saving needs p > 2 (with 2
     // parameters the two cost about the same: 44 and 40 runs).
     if (c.p > 2) EXPECT_LT(s.simulations, sampled.simulations) << c.name;
-    for (size_t k = 1; k < s.iterations.size(); ++k) {
-      EXPECT_LE(s.iterations[k].objective, s.iterations[k - 1].objective) << c.name << " " << k;
-    }
+    expect_objective_never_rises(s, c.name);
   }
 }
 
@@ -570,18 +574,12 @@ TEST(UtCalibration, GeodesicAccelerationKeepsTheMapPointAndFollowsACurvedValleyI
   // The acceleration changes the path, not the fixed point: the same MAP and Laplace covariance
   // on the two exact cases.
   for (const NonlinearCase& c : nonlinear_cases()) {
-    const Eigen::MatrixXd R = c.r.array().square().matrix().asDiagonal();
-    const Exact exact = newton_map(c.h, c.J, c.m, c.m0, c.s0, c.y, R, c.m0);
-    UtOptions opt = map_options({SigmaRule::kCanonical});
-    opt.sample_scale = 1e-4;
+    UtOptions opt = exact_map_options();
     opt.geodesic_acceleration = true;
-    const UtSummary s =
-        UtCalibration(FunctionModel(c.p, c.m, c.h), identity_parameters(c.m0, c.s0), observations(c.y, R), opt)
-            .run();
+    const auto [s, mean_error, cov_error] = run_against_exact(c, opt);
     ASSERT_EQ(s.termination, UtTermination::kConverged) << c.name << ": " << s.message;
-    EXPECT_LT((s.eta_mean - exact.map).cwiseAbs().maxCoeff(), 1e-4) << c.name;
-    EXPECT_LT((s.eta_covariance - exact.laplace).cwiseAbs().maxCoeff() / exact.laplace.cwiseAbs().maxCoeff(), 1e-4)
-        << c.name;
+    EXPECT_LT(mean_error, 1e-4) << c.name;
+    EXPECT_LT(cov_error, 1e-4) << c.name;
   }
   // Rosenbrock's valley as residuals (z = (10 (t1 - t0^2), t0), y = (0, 1); Transtrum & Sethna
   // 2012, s.5): from (-1.2, 1) damped Gauss-Newton creeps round the parabola t1 = t0^2.
