@@ -109,7 +109,9 @@ BENCHMARK(BM_CalibrateForeign)
 // disables the valley finishing step; 1: the shipped config, objective-based stop).
 // Arg version: which config (0: as issue 45 found it and first changed it: star sigma points, no
 // secant iterations, a screen of 32 and 4 local runs, max_beats 120; 1: the shipped one: simplex,
-// secant 8, a screen of 64 and 6 local runs, max_beats 60; experiments/foreign-data/README.md).
+// secant 8, a screen of 64 and 6 local runs, max_beats 60; experiments/foreign-data/README.md),
+// 0 and 1 with the local runs one after another on both threads; 2: the shipped one with the local
+// runs side by side, one per thread (UtGlobalStart::concurrent, the default): same numbers as 1.
 //   build/bench/calibration_bench --benchmark_filter='BM_CalibrateForeignCase/case:1/'
 struct BenchCase {
   const char* name;
@@ -132,6 +134,7 @@ void BM_CalibrateForeignCase(benchmark::State& state) {
   estimation::UtOptions options = f.problem.options;
   options.ensemble = f.ensemble;
   if (state.range(1) == 0) options.objective_tolerance = 0.0;
+  options.global_start.concurrent = state.range(2) == 2;
   estimation::UtSummary s;
   for (auto _ : state) {
     s = estimation::UtCalibration(f.forward, f.problem.prior, f.problem.observations, options).run();
@@ -141,11 +144,13 @@ void BM_CalibrateForeignCase(benchmark::State& state) {
   state.counters["objective"] = s.objective;
   state.counters["converged"] = s.termination == estimation::UtTermination::kConverged ? 1 : 0;
   state.SetLabel(std::string("UT, ") + c.name + (state.range(1) == 0 ? ", step-only stop, " : ", ") +
-                 (state.range(2) == 0 ? "before (star, 32/4), " : "shipped, ") +
+                 (state.range(2) == 0   ? "before (star, 32/4), "
+                  : state.range(2) == 1 ? "shipped, one after another, "
+                                        : "shipped, side by side, ") +
                  estimation::to_string(s.termination));
 }
 BENCHMARK(BM_CalibrateForeignCase)
-    ->ArgNames({"case", "stop", "version"})->ArgsProduct({{0, 1, 2, 3}, {0, 1}, {0, 1}})
+    ->ArgNames({"case", "stop", "version"})->ArgsProduct({{0, 1, 2, 3}, {0, 1}, {0, 1, 2}})
     ->Iterations(1)->UseRealTime()->Unit(benchmark::kSecond);
 
 }  // namespace

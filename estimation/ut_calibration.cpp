@@ -7,10 +7,14 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <exception>
 #include <limits>
+#include <mutex>
 #include <sstream>
 #include <stdexcept>
+#include <thread>
 #include <utility>
 
 namespace sigmaheart::estimation {
@@ -491,13 +495,58 @@ UtSummary UtCalibration::run_global() {
   int simulations = static_cast<int>(eta.rows());
   int failures = screen.failures();
   const bool probing = g.probe_iterations > 0 && g.probe_iterations < options_.max_iterations;
+  // Local run k from the k-th best screened point, in its own checkpoint scope, so that its
+  // members keep their keys whether the local runs go one after another or side by side.
+  auto local_run = [&](int k, EnsembleOptions eo, bool report_progress) {
+    const auto row = static_cast<Eigen::Index>(order[static_cast<size_t>(k)]);
+    eo.checkpoint_scope = options_.ensemble.checkpoint_scope + "/local" + std::to_string(k);
+    return run_local(Start{eta.row(row).transpose(), fits[static_cast<size_t>(row)], fits[0],
+                           probing ? g.probe_iterations : 0,
+                           warm_starts ? Eigen::VectorXd(screen.warm.row(row).transpose()) : Eigen::VectorXd()},
+                     eo, report_progress);
+  };
+  std::vector<UtSummary> locals(static_cast<size_t>(g.keep));
+  const int side_by_side = g.concurrent && ensemble.ranks() == 1 ? std::min(ensemble.workers(), g.keep) : 1;
+  if (side_by_side > 1) {
+    // One local run per thread (std::threads; each run's own ensemble is an OpenMP team of
+    // threads / side_by_side), handed out in order of the screen; the first failure (an
+    // interruption) stops the hand-out and is rethrown once every thread has finished.
+    EnsembleOptions inner = options_.ensemble;
+    inner.backend = Backend::kThreads;
+    inner.communicator = nullptr;
+    inner.threads = std::max(1, ensemble.workers() / side_by_side);
+    inner.progress = nullptr;
+    std::atomic<int> next{0};
+    std::atomic<bool> stop{false};
+    std::mutex mutex;
+    int finished = 0;
+    std::vector<std::exception_ptr> errors(static_cast<size_t>(g.keep));
+    auto worker = [&]() {
+      for (int k = next++; k < g.keep && !stop; k = next++) {
+        try {
+          locals[static_cast<size_t>(k)] = local_run(k, inner, false);
+        } catch (...) {
+          errors[static_cast<size_t>(k)] = std::current_exception();
+          stop = true;
+        }
+        const std::lock_guard<std::mutex> lock(mutex);
+        ++finished;
+        if (options_.progress && !stop) options_.progress(UtProgress{-2, 0, finished, g.keep});
+      }
+    };
+    std::vector<std::thread> threads;
+    for (int w = 0; w < side_by_side; ++w) threads.emplace_back(worker);
+    for (std::thread& t : threads) t.join();
+    for (const std::exception_ptr& e : errors) {
+      if (e) std::rethrow_exception(e);
+    }
+  } else {
+    for (int k = 0; k < g.keep; ++k) locals[static_cast<size_t>(k)] = local_run(k, options_.ensemble, true);
+  }
   for (int k = 0; k < g.keep; ++k) {
     const auto i = static_cast<size_t>(order[static_cast<size_t>(k)]);
     const auto row = static_cast<Eigen::Index>(i);
-    UtSummary s = run_local(Start{eta.row(row).transpose(), fits[i], fits[0],
-                                  probing ? g.probe_iterations : 0,
-                                  warm_starts ? Eigen::VectorXd(screen.warm.row(row).transpose())
-                                              : Eigen::VectorXd()});
+    UtSummary& s = locals[static_cast<size_t>(k)];
     simulations += s.simulations;
     failures += s.failures;
     UtStart st;
@@ -535,7 +584,9 @@ UtSummary UtCalibration::run_global() {
   return *best;
 }
 
-UtSummary UtCalibration::run_local(const Start& start) {
+UtSummary UtCalibration::run_local(const Start& start) { return run_local(start, options_.ensemble, true); }
+
+UtSummary UtCalibration::run_local(const Start& start, const EnsembleOptions& ensemble_opts, bool report_progress) {
   const int p = prior_.size();
   const int m = observations_.size();
   const Eigen::VectorXd& y = observations_.y;
@@ -574,9 +625,9 @@ UtSummary UtCalibration::run_local(const Start& start) {
 
   int current_iteration = 0;
   int current_attempt = 0;
-  EnsembleOptions ensemble_options = options_.ensemble;
+  EnsembleOptions ensemble_options = ensemble_opts;
   ensemble_options.progress = [&](int done, int total) {
-    if (options_.progress) {
+    if (report_progress && options_.progress) {
       options_.progress(UtProgress{current_iteration, current_attempt, done, total});
     }
   };

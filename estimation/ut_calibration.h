@@ -55,6 +55,9 @@
 // mean), then a local run from each of the best `keep`; the summary is the local run with the
 // lowest final Phi, with every start listed in UtSummary::starts. With probe_iterations the local
 // runs are probes of that many iterations and only the best probe is continued to the end.
+// The local runs are independent, so on one rank with several threads they run side by side, one
+// per thread (UtGlobalStart::concurrent): a local run's single-run steps (candidates, secant
+// iterations) then leave no thread idle, and the numbers are those of the runs one after another.
 //
 // Failure policy (docs/estimation.md s.8), every action recorded in Summary::actions:
 //  - kAbort: the first iteration with a failed member ends the run (kAbortedFailures) with the
@@ -136,11 +139,17 @@ struct UtGlobalStart {
   // lowest Phi then goes on (from where it stopped) to the full max_iterations. 0: every local run
   // goes to the end. Starts that lead to the same basin then cost a few iterations, not a run.
   int probe_iterations = 0;
+  // On one rank with several threads: the local runs side by side, each on threads / that many
+  // threads (at least one), instead of one after another on all threads. Same numbers either way
+  // (each local run depends only on its start); under several ranks always one after another.
+  bool concurrent = true;
 };
 const char* to_string(UtInnovation innovation);
 
 struct UtProgress {
-  int iteration = 0;  // 0-based
+  // 0-based; -1: the global start's screen; -2: its local runs side by side (done, total count
+  // the finished local runs; UtGlobalStart::concurrent)
+  int iteration = 0;
   int attempt = 0;    // 0 = first sampling, k = k-th shrink retry
   int done = 0;       // members finished in this ensemble batch (this rank's share under MPI)
   int total = 0;
@@ -351,6 +360,9 @@ class UtCalibration {
  private:
   struct Start;  // a local run's starting point and what is known there
   UtSummary run_local(const Start& start);
+  // With the ensemble options of this run and whether it reports progress (a local run of the
+  // global start side by side with others does not).
+  UtSummary run_local(const Start& start, const EnsembleOptions& ensemble, bool report_progress);
   UtSummary run_global();
 
   const ForwardModel& model_;

@@ -30,9 +30,11 @@ std::function<void(const estimation::UtProgress&)> ut_progress(ProgressLine& pro
       if (stage->first >= 0) progress.finish();
       *stage = {p.iteration, p.attempt};
       // A batch of one run is a centre run (a backtracking step, or the fit at the estimate).
-      std::string what = p.iteration < 0 ? std::string("global start screen")
-                         : "iteration " + std::to_string(p.iteration + 1) +
-                               (p.total == 1 ? std::string(" (centre run)") : std::string());
+      // Local runs of a global start side by side report each finished local run, not members.
+      std::string what = p.iteration == -1   ? std::string("global start screen")
+                         : p.iteration == -2 ? std::string("global start: local runs side by side")
+                                             : "iteration " + std::to_string(p.iteration + 1) +
+                                                   (p.total == 1 ? std::string(" (centre run)") : std::string());
       if (p.attempt > 0) {
         what += p.total == 1 ? " (damped candidate " + std::to_string(p.attempt) + ")"
                              : " (retry " + std::to_string(p.attempt) + ", smaller spread)";

@@ -923,5 +923,52 @@ TEST(UtCalibration, GlobalStartFindsTheDeeperOfTwoMinimaAFarPriorMisses) {
   EXPECT_NE(probed.message.find("probes of 2 iterations continued"), std::string::npos) << probed.message;
 }
 
+TEST(UtCalibration, GlobalStartLocalRunsSideBySideGiveTheNumbersOfRunsOneAfterAnother) {
+  // The two-minima problem above: three local runs one after another on one thread, then side by
+  // side on two and three threads (UtGlobalStart::concurrent), probes too: every number equal.
+  Map h = [](const Eigen::VectorXd& t, Eigen::Ref<Eigen::VectorXd> z) {
+    z << t(0) * t(0), t(0);
+    return model::Status::Ok();
+  };
+  const Eigen::VectorXd m0 = Eigen::VectorXd::Constant(1, -1.5), s0 = Eigen::VectorXd::Constant(1, 5.0);
+  const Eigen::Vector2d y(4.0, 2.1);
+  const Eigen::MatrixXd R = Eigen::Vector2d(0.1 * 0.1, 3.0 * 3.0).asDiagonal();
+  for (const int probe : {0, 2}) {
+    UtOptions opt = map_options({SigmaRule::kCanonical});
+    opt.sample_scale = 1e-4;
+    opt.global_start = {16, 3, 1.0};
+    opt.global_start.probe_iterations = probe;
+    opt.ensemble.backend = Backend::kThreads;
+    opt.ensemble.threads = 1;
+    const UtSummary serial = UtCalibration(FunctionModel(1, 2, h), identity_parameters(m0, s0), observations(y, R), opt).run();
+    ASSERT_EQ(serial.termination, UtTermination::kConverged) << serial.message;
+    for (const int threads : {2, 3}) {
+      opt.ensemble.threads = threads;
+      std::vector<UtProgress> reports;
+      opt.progress = [&](const UtProgress& pr) {
+        if (pr.iteration == -2) reports.push_back(pr);
+      };
+      const UtSummary side = UtCalibration(FunctionModel(1, 2, h), identity_parameters(m0, s0), observations(y, R), opt).run();
+      SCOPED_TRACE("probe " + std::to_string(probe) + ", threads " + std::to_string(threads));
+      EXPECT_EQ(side.termination, serial.termination);
+      EXPECT_EQ(side.message, serial.message);
+      EXPECT_EQ((side.eta_mean - serial.eta_mean).norm(), 0.0);
+      EXPECT_EQ((side.eta_covariance - serial.eta_covariance).norm(), 0.0);
+      EXPECT_EQ(side.simulations, serial.simulations);
+      ASSERT_EQ(side.starts.size(), serial.starts.size());
+      for (size_t k = 0; k < side.starts.size(); ++k) {
+        EXPECT_EQ(side.starts[k].objective, serial.starts[k].objective);
+        EXPECT_EQ(side.starts[k].simulations, serial.starts[k].simulations);
+      }
+      // One report per finished local run, counting up to the three of them.
+      ASSERT_EQ(reports.size(), 3u);
+      for (size_t k = 0; k < reports.size(); ++k) {
+        EXPECT_EQ(reports[k].done, static_cast<int>(k) + 1);
+        EXPECT_EQ(reports[k].total, 3);
+      }
+    }
+  }
+}
+
 }  // namespace
 }  // namespace sigmaheart::estimation
