@@ -161,9 +161,10 @@ struct UtOptions {
   int max_iterations = 1;                    // iterate modes; kOneShot always runs 1
   double tolerance = 1e-4;                   // on max |d eta_j| / sigma0_j
   // kMap, the objective-based stop (docs/estimation.md s.3.3): converged when Phi fell by less
-  // than objective_tolerance per observation over the last two iterations and the linearised
-  // Phi promises no more than that either (Phi is in squared noise units / 2, so 0.01 per
-  // observation is a change of 0.02 in the mean squared normalised residual). 0: off (step only).
+  // than objective_tolerance per observation over the last two iterations and a finishing step
+  // along the valley did not lower it (Phi is in squared noise units / 2, so 0.01 per observation
+  // is a change of 0.02 in the mean squared normalised residual); the decrease the linearised Phi
+  // still promised is stated in the message, not tested. 0: off (step only).
   double objective_tolerance = 0.01;
   // kMap: an unknown scale per observation channel with this inverse-gamma prior on its variance
   // multiplier, marginalised (noise_scale.h); nullopt: the stated noise is exact.
