@@ -177,6 +177,8 @@ std::unique_ptr<model::SteppableSimulator> prepare_personalize_model(
     }
     omega /= omega.sum();
     problem.volume_shares = omega;
+    problem.reference_shares = s;
+    problem.reference_volume = V_ed;
     simulator = std::make_unique<model::RegionalVolumeShares>(std::move(simulator), omega, s, V_ed,
                                                               problem.share_exponents);
     note << "volume shares from the data's beat (" << frames.size() << " frames" << (dv.cavity ? " of V_lv" : "")

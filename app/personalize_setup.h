@@ -100,6 +100,8 @@ struct PersonalizeProblem {
   double data_ed_time = std::nan("");     // [s] file time of the data's end-diastole (align)
   double model_ed_time = std::nan("");    // [s] the model's end-diastole in its beat (align)
   Eigen::VectorXd volume_shares;          // shares: data, per regional channel of the model
+  Eigen::VectorXd reference_shares;       // ... the model's reference shares s_p (the wrapper's)
+  double reference_volume = std::nan(""); // ... [m^3] the data's end-diastolic volume, V_ref
 };
 
 // Every problem is an InputError at the offending key (file:line:column).

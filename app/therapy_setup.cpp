@@ -74,8 +74,27 @@ std::vector<int> scar_from_contractility(const model::ParameterSpace& space, con
   return out;
 }
 
+// The factor `inflate:` asks for. nis: the Birge ratio of the personalisation (its mean NIS over
+// the NIS its stated noise predicts): when the innovations are c times larger in variance than the
+// filter assumed, a linear-Gaussian posterior with the noise scaled by sqrt(c) has its covariance
+// scaled by c (Birge 1932, Phys Rev 40:207; the reduced chi-square scaling of least squares). The
+// model error it stands for is not Gaussian noise, so this widens the intervals without removing
+// a bias.
+double inflation_factor(const ConfigNode& n, const std::optional<io::PosteriorFile>& file) {
+  if (n.is_scalar() && n.as<std::string>() == "none") return 1.0;
+  if (n.is_scalar() && n.as<std::string>() == "nis") {
+    if (!file) n.fail("inflate: nis needs therapy.personalization");
+    if (!(std::isfinite(file->nis_mean) && file->nis_expected > 0.0))
+      n.fail("inflate: nis needs a personalize result with its mean NIS (/summary nis_mean) and observations");
+    return std::max(1.0, file->nis_mean / file->nis_expected);
+  }
+  const double f = n.as<double>();
+  if (!(f >= 1.0 && std::isfinite(f))) n.fail("expected none, nis or a factor >= 1");
+  return f;
+}
+
 void parse_uncertainty(const ConfigNode& u, estimation::PropagationOptions& o) {
-  u.check_keys({"method", "sigma_points", "kappa", "alpha", "beta", "samples", "seed", "interval"});
+  u.check_keys({"method", "sigma_points", "kappa", "alpha", "beta", "samples", "seed", "interval", "inflate"});
   if (u.has("method"))
     o.method = *estimation::parse_propagation_method(u["method"].as_choice({"unscented", "monte-carlo", "point"}));
   if (u.has("sigma_points"))
@@ -118,13 +137,30 @@ TherapyProblem parse_therapy(const Config& config) {
     if (root["simulator"].has("parameters"))
       root["simulator"]["parameters"].fail("with therapy.personalization every parameter comes from the result file; "
                                            "remove simulator.parameters");
-    p.personalization = io::read_posterior(p.personalization_file, config.simulator.parameters, config.simulator.model, f);
+    const std::unique_ptr<model::SteppableSimulator> inner = model::into_steppable(config.simulator.make());
+    p.personalization =
+        io::read_posterior(p.personalization_file, config.simulator.parameters, config.simulator.model, f, inner.get());
+    p.space = p.personalization->space;
     p.base_theta = p.personalization->theta;
+    if (p.personalization->volume_shares) {
+      try {
+        (void)make_therapy_model(config, p);
+      } catch (const std::invalid_argument& e) {
+        f.fail("personalisation result '" + p.personalization_file.string() + "': " + e.what());
+      }
+    }
   } else {
+    p.space = config.simulator.parameters;
     p.base_theta = config.simulator.parameters.nominal();
   }
 
-  if (t.has("uncertainty")) parse_uncertainty(t["uncertainty"], o.propagation);
+  if (t.has("uncertainty")) {
+    parse_uncertainty(t["uncertainty"], o.propagation);
+    if (t["uncertainty"].has("inflate")) {
+      p.inflation = inflation_factor(t["uncertainty"]["inflate"], p.personalization);
+      if (p.personalization) p.personalization->posterior.eta_covariance *= p.inflation;
+    }
+  }
   if (const int np = p.personalization ? p.personalization->posterior.size() : 1;
       !o.propagation.validate(np).empty())
     t["uncertainty"].fail(o.propagation.validate(np));
@@ -179,7 +215,7 @@ TherapyProblem parse_therapy(const Config& config) {
   } else if (scar.defined() && scar.as_choice({"auto", "none"}) == "none") {
     p.scar_source = "none";
   } else {
-    o.scar = scar_from_contractility(config.simulator.parameters, p.base_theta, threshold);
+    o.scar = scar_from_contractility(p.space, p.base_theta, threshold);
     p.scar_source = "auto: contractility below " + std::to_string(std::lround(100 * threshold)) + " % of the median";
   }
 
@@ -214,6 +250,14 @@ TherapyProblem parse_therapy(const Config& config) {
   if (p.threads < 0) t["threads"].fail("expected an integer >= 0 (0: all cores)");
   if (const std::string m = o.validate(); !m.empty()) t.fail(m);
   return p;
+}
+
+std::unique_ptr<model::Simulator> make_therapy_model(const Config& config, const TherapyProblem& problem) {
+  std::unique_ptr<model::Simulator> simulator = config.simulator.make();
+  if (!problem.personalization || !problem.personalization->volume_shares) return simulator;
+  std::unique_ptr<model::SteppableSimulator> inner = model::into_steppable(std::move(simulator));
+  if (!inner) throw std::invalid_argument("model " + config.simulator.model + " cannot be stepped: no volume shares");
+  return io::wrap_as_fitted(*problem.personalization, std::move(inner));
 }
 
 }  // namespace sigmaheart::app

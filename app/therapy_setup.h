@@ -5,7 +5,9 @@
 //     personalization: ../results/lbbb-personalize.h5   # optional: a calibrate or personalize result
 //                                # (its posterior is propagated; the model must be this config's)
 //     uncertainty: {method: unscented, sigma_points: star, kappa: 1, samples: 200, seed: 1,
-//                   interval: 90 %}       # method unscented | monte-carlo | point
+//                   interval: 90 %, inflate: none}  # method unscented | monte-carlo | point
+//                                # inflate: none | nis (a personalize result's covariance times its
+//                                # mean NIS over its expectation, when above 1) | a factor >= 1
 //     responder_threshold: 10 %  # AHR above which a therapy counts as a response
 //     scar: auto                 # auto (segments whose contractility at the estimate is below
 //                                # scar_threshold of the median) | none | [7, 13, ...]
@@ -24,7 +26,9 @@
 //
 // Without `personalization` the therapies run once at the config's parameters (no uncertainty):
 // how a known heart (a 3D truth) is paced. With it the parameters are the result's (every model
-// parameter at its estimate) and the config may not set `simulator.parameters`.
+// parameter at its estimate) and the config may not set `simulator.parameters`; the model is
+// wrapped as the personalisation fitted it (its volume shares, app/io/posterior_file.h) and an
+// estimated t_shift, an observation-time alignment, is marginalised out.
 #pragma once
 
 #include "app/config.h"
@@ -35,6 +39,7 @@
 #include <Eigen/Core>
 
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -47,8 +52,10 @@ struct TherapyProblem {
   bool pv_loops = true;                         // the beats at the posterior mean (2 more runs)
   std::optional<io::PosteriorFile> personalization;
   std::filesystem::path personalization_file;
-  Eigen::VectorXd base_theta;                   // every model parameter (SI)
+  model::ParameterSpace space;                  // the parameters of the model run (make_therapy_model)
+  Eigen::VectorXd base_theta;                   // every parameter of `space` (SI)
   std::string scar_source;                      // how the scar segments were chosen, for reports
+  double inflation = 1.0;                       // the posterior covariance was multiplied by it
   std::string route;                            // how the model is paced (PacedSimulator::route)
 };
 
@@ -56,5 +63,8 @@ struct TherapyProblem {
 // mesh or in no segment, a point on a model paced by segment times, an AV delay outside its range,
 // a model whose activation cannot be paced, a personalisation file of another model.
 TherapyProblem parse_therapy(const Config& config);
+
+// The model the therapies run: the config's, wrapped as the personalisation fitted it.
+std::unique_ptr<model::Simulator> make_therapy_model(const Config& config, const TherapyProblem& problem);
 
 }  // namespace sigmaheart::app

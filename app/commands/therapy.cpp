@@ -37,7 +37,7 @@ int run_therapy(const StudyOptions& o, CommandContext& ctx) {
   };
   opts.ensemble.progress = [&progress](int done, int) { progress.update(done); };
 
-  const auto simulator = config.simulator.make();
+  const auto simulator = make_therapy_model(config, problem);
   std::optional<estimation::Posterior> posterior;
   std::vector<std::vector<int>> estimated;
   Eigen::VectorXd mean_theta = problem.base_theta;
@@ -64,7 +64,7 @@ int run_therapy(const StudyOptions& o, CommandContext& ctx) {
   io::TherapyResults results;
   results.problem = &problem;
   results.summary = &summary;
-  results.space = &config.simulator.parameters;
+  results.space = &problem.space;
   results.mean_theta = mean_theta;
   auto beat = [&](const th::Therapy& t) -> std::optional<model::Trajectory> {
     const model::RunResult r = th::therapy_beat(*simulator, mean_theta, t, opts);

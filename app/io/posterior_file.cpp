@@ -1,6 +1,8 @@
 #include "app/io/posterior_file.h"
 
 #include "app/io/hdf5_writer.h"
+#include "model/regional_volume_shares.h"
+#include "model/time_shift.h"
 
 #include <algorithm>
 #include <cmath>
@@ -60,10 +62,12 @@ bool reproduces(const estimation::Transform& t, double eta, double value) {
 
 }  // namespace
 
-PosteriorFile read_posterior(const std::filesystem::path& file, const model::ParameterSpace& space,
-                             const std::string& model, const ConfigNode& at) {
+PosteriorFile read_posterior(const std::filesystem::path& file, const model::ParameterSpace& inner_space,
+                             const std::string& model, const ConfigNode& at, model::SteppableSimulator* simulator) {
   const std::string where = "personalisation result '" + file.string() + "'";
   PosteriorFile out;
+  out.space = inner_space;
+  const model::ParameterSpace& space = out.space;
   try {
     const Hdf5Reader h5(file);
     out.kind = h5.has_attribute("/", "kind") ? h5.string_attribute("/", "kind") : "";
@@ -76,8 +80,24 @@ PosteriorFile read_posterior(const std::filesystem::path& file, const model::Par
     if (out.model != model)
       at.fail(where + " personalised model '" + out.model + "'; this config's simulator is '" + model +
               "' (a personalisation applies to the model it was made with)");
+    // The volume-share wrapper the personalisation fitted with (shares: data).
+    if (h5.exists("/setup/volume_shares")) {
+      VolumeShareSetup v;
+      v.shares = h5.read_vector("/setup/volume_shares");
+      if (h5.exists("/setup/reference_shares")) v.reference = h5.read_vector("/setup/reference_shares");
+      v.level_exponents = h5.has_attribute("/setup", "share_exponents")
+                              ? h5.double_attribute("/setup", "share_exponents") > 0.5
+                              : v.shares.size() == 17;  // personalize's rule before the attribute
+      if (h5.has_attribute("/setup", "reference_volume")) v.reference_volume = h5.double_attribute("/setup", "reference_volume");
+      out.volume_shares = v;
+      try {
+        out.space = model::RegionalVolumeShares::shares_space(inner_space, v.level_exponents);
+      } catch (const std::invalid_argument& e) {
+        at.fail(where + ": its volume shares do not fit " + model + ": " + e.what());
+      }
+    }
     // Every model parameter: by name, a zoned member from its zone parameter.
-    const auto zones = zones_of(root, space);
+    const auto zones = zones_of(root, inner_space);
     const auto names = h5.read_strings("/parameters/names");
     const Eigen::VectorXd values = h5.read_vector("/parameters/values");
     auto value_of = [&](const std::string& name) -> std::optional<double> {
@@ -95,6 +115,25 @@ PosteriorFile read_posterior(const std::filesystem::path& file, const model::Par
                 "' (its simulator numerics differ, e.g. the number of patches)");
       out.theta(i) = *v;
     }
+    if (out.volume_shares) {
+      VolumeShareSetup& v = *out.volume_shares;
+      if (v.reference.size() == 0) {  // a file from before /setup/reference_shares: the model's own
+        if (!simulator) at.fail(where + " holds no /setup/reference_shares");
+        try {
+          v.reference = model::RegionalVolumeShares::reference_shares(*simulator, out.theta.head(inner_space.size()));
+        } catch (const std::invalid_argument& e) {
+          at.fail(where + ": " + e.what());
+        }
+      }
+      if (v.level_exponents && !(v.reference_volume > 0.0)) {
+        // Older files: V_ref matters only when a level exponent is not 0.
+        const bool flat = out.theta.segment(inner_space.size(), 3).cwiseAbs().maxCoeff() == 0.0;
+        if (!flat) at.fail(where + " holds share-law exponents but no /setup reference_volume: rerun personalize");
+        v.reference_volume = 1.0;
+      }
+      if (v.shares.size() != v.reference.size())
+        at.fail(where + ": /setup/volume_shares and /setup/reference_shares differ in size");
+    }
     const bool calibrate = out.kind == "calibrate";
     if (calibrate) {
       out.converged = h5.double_attribute("/summary", "ok") > 0.5;
@@ -102,6 +141,10 @@ PosteriorFile read_posterior(const std::filesystem::path& file, const model::Par
     } else {
       out.status = h5.string_attribute("/summary", "termination");
       out.converged = out.status == "completed";
+      if (h5.has_attribute("/summary", "nis_mean") && h5.exists("/observations/names")) {
+        out.nis_mean = h5.double_attribute("/summary", "nis_mean");
+        out.nis_expected = static_cast<double>(h5.read_strings("/observations/names").size());
+      }
     }
     if (!h5.exists("/estimate/eta_covariance"))
       at.fail(where + " holds no posterior (the estimator produced no estimate: " + out.status + ")");
@@ -116,8 +159,14 @@ PosteriorFile read_posterior(const std::filesystem::path& file, const model::Par
     if (kinds.size() != p.names.size() || value.size() != p.eta_mean.size() ||
         static_cast<size_t>(p.eta_mean.size()) != p.names.size())
       at.fail(where + ": the sizes of /estimate disagree");
+    std::vector<Eigen::Index> keep;  // the posterior parameters a therapy propagates
     for (size_t j = 0; j < p.names.size(); ++j) {
       const std::string& name = p.names[j];
+      if (name == model::TimeShift::kName && !space.index(name)) {
+        out.marginalised.push_back(name);  // the observation clock, not the heart (header)
+        continue;
+      }
+      keep.push_back(static_cast<Eigen::Index>(j));
       const auto zone = zones.find(name);
       const auto i = space.index(name);
       if (zone == zones.end() && !i)
@@ -155,12 +204,32 @@ PosteriorFile read_posterior(const std::filesystem::path& file, const model::Par
         at.fail(where + ": the " + kinds[j] + " transform of '" + name +
                 "' cannot be rebuilt (no bounds reproduce its estimate from its eta)");
     }
+    if (static_cast<size_t>(keep.size()) != p.names.size()) {
+      std::vector<std::string> kept_names, kept_units;
+      for (Eigen::Index j : keep) {
+        kept_names.push_back(p.names[static_cast<size_t>(j)]);
+        kept_units.push_back(p.units[static_cast<size_t>(j)]);
+      }
+      p.names = kept_names;
+      p.units = kept_units;
+      p.eta_mean = Eigen::VectorXd(p.eta_mean(keep));
+      p.eta_covariance = Eigen::MatrixXd(p.eta_covariance(keep, keep));
+    }
+    if (p.names.empty()) at.fail(where + " estimated nothing a therapy depends on (only " + model::TimeShift::kName + ")");
     if (const std::string m = p.validate(); !m.empty()) at.fail(where + ": " + m);
   } catch (const InputError& e) {
     if (e.file() == at.location().file) throw;
     at.fail(where + ": " + e.message());
   }
   return out;
+}
+
+std::unique_ptr<model::SteppableSimulator> wrap_as_fitted(const PosteriorFile& file,
+                                                          std::unique_ptr<model::SteppableSimulator> inner) {
+  if (!file.volume_shares) return inner;
+  const VolumeShareSetup& v = *file.volume_shares;
+  return std::make_unique<model::RegionalVolumeShares>(std::move(inner), v.shares, v.reference, v.reference_volume,
+                                                        v.level_exponents);
 }
 
 }  // namespace sigmaheart::app::io

@@ -85,8 +85,14 @@ void write_roukf_h5(const std::filesystem::path& path, const RoukfResults& resul
       h5.set_attribute("/channels/noise_scale", "description", "sqrt of the posterior mode of s^2: the noise std in stated noise stds");
     }
   }
-  if (problem.volume_shares.size() > 0) h5.write_vector("/setup/volume_shares", problem.volume_shares, "1");
   h5.create_group("/setup");
+  if (problem.volume_shares.size() > 0) {
+    // What `therapy` needs to rebuild the wrapper the fit ran (model/regional_volume_shares.h).
+    h5.write_vector("/setup/volume_shares", problem.volume_shares, "1");
+    h5.write_vector("/setup/reference_shares", problem.reference_shares, "1");
+    h5.set_attribute("/setup", "reference_volume", problem.reference_volume);
+    h5.set_attribute("/setup", "share_exponents", problem.share_exponents ? 1.0 : 0.0);
+  }
   h5.set_attribute("/setup", "notes", problem.notes);
   h5.set_attribute("/setup", "align", std::string(problem.align_end_diastole ? "end-diastole" : "ecg"));
   h5.set_attribute("/setup", "data_ed_time", problem.data_ed_time);

@@ -130,7 +130,11 @@ Table site_table(const TherapyResults& r, const std::vector<th::TherapyOutcome>&
 std::string personalization_text(const TherapyResults& r) {
   const auto& p = r.problem->personalization;
   if (!p) return "none (the config's parameters, no uncertainty)";
-  return r.problem->personalization_file.string() + " (" + p->kind + ", " + p->status + ")";
+  std::string text = r.problem->personalization_file.string() + " (" + p->kind + ", " + p->status;
+  if (p->volume_shares) text += "; its volume shares of the data";
+  for (const auto& name : p->marginalised) text += "; " + name + " marginalised (observation clock only)";
+  if (r.problem->inflation > 1.0) text += "; covariance inflated x" + format_number(r.problem->inflation, 3);
+  return text + ")";
 }
 
 std::string scar_text(const TherapyResults& r) {

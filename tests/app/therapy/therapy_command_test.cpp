@@ -3,7 +3,10 @@
 // others, and bad input (issue 47, item 6) at file:line:column with exit 2.
 #include "app/blackbox/register.h"
 #include "app/cli.h"
+#include "app/config.h"
 #include "app/io/hdf5_writer.h"
+#include "app/personalize_setup.h"
+#include "model/regional_volume_shares.h"
 #include "tests/app/test_support.h"
 
 #include <gtest/gtest.h>
@@ -128,6 +131,102 @@ TEST(TherapyCommand, AFailingSiteIsReportedAndTheOthersAreWritten) {
   EXPECT_NE(j["map"][0]["failure"].get<std::string>().find("never activated"), std::string::npos);
   EXPECT_EQ(j["map"][1]["status"], "ok");
   EXPECT_NE(r.out.find("FAILED"), std::string::npos);
+}
+
+// A personalisation that fitted with the data's volume shares (shares: data), estimated a share-law
+// exponent and the time shift of the alignment (align: end-diastole) feeds a therapy, which runs the
+// model the fit ran: the 17-segment twin's wall-area shares differ from the personalised model's, so
+// the wrapper matters (without it the regional volumes differ by up to 90 %, measured); with it the therapy's
+// baseline regional volumes at the estimate equal those of personalize's own model (rebuilt by
+// prepare_personalize_model) to rounding (measured: 0 mL), and t_shift (the observation clock) is
+// marginalised out. About 6 s of CPU.
+TEST(TherapyCommand, APersonalisationWithVolumeSharesAndATimeShiftIsSimulatedAsItWasFitted) {
+  const auto dir = scratch_dir();
+  const std::string numerics = "  numerics: {dt: 2 ms, activation: {pattern: lbbb, duration: 140 ms}}\n";
+  write_file(dir / "twin.yaml", "name: twin\nsimulator:\n  model: lumped-regional\n"
+                                "  numerics: {dt: 2 ms, activation: {pattern: lbbb, duration: 140 ms}, area_shares: "
+                                "[0.075, 0.075, 0.075, 0.075, 0.075, 0.075, 0.06, 0.06, 0.06, 0.06, 0.06, 0.06, "
+                                "0.04, 0.04, 0.04, 0.04, 0.03]}\n");
+  std::vector<std::string> args = {"synthesize", (dir / "twin.yaml").string(), "-o", (dir / "twin.csv").string(),
+                                    "--frames", "30", "--seed", "47", "--channels"};
+  std::string channels;
+  for (int s = 1; s <= 16; ++s) channels += std::string(s > 1 ? "," : "") + (s < 10 ? "V_seg0" : "V_seg") + std::to_string(s);
+  args.push_back(channels + ",V_lv");  // the cavity volume: segment 17 unobserved, as in the 3D data
+  ASSERT_EQ(cli(args).code, 0);
+  const auto pcfg = write_file(dir / "p.yaml", "name: p\nsimulator:\n  model: lumped-regional\n" + numerics +
+                                                  "personalize:\n  observations:\n    file: " + (dir / "twin.csv").string() +
+                                                  "\n    channels: [" + channels +
+                                                  "]\n    noise: 0.05 mL\n    start_beats: 3\n    align: end-diastole\n"
+                                                  "    shares: data\n  estimate:\n"
+                                                  "    k_ATP: {spread: 30 %, transform: log}\n"
+                                                  "    vshare_basal: {prior: 0, spread: 0.2 1, transform: identity}\n"
+                                                  "    t_shift: {prior: 0, spread: 10 ms, transform: identity}\n"
+                                                  "  filter: {passes: split, beats: 4, map_iterations: 3, sigma_points: simplex}\n");
+  const CliRun p = cli({"personalize", pcfg.string(), "-o", (dir / "p.h5").string(), "--threads", "1"});
+  ASSERT_TRUE(p.code == 0 || p.code == 1) << p.err;  // a MAP point not reached still writes its estimate
+  const auto result = std::filesystem::exists(dir / "p.h5") ? dir / "p.h5" : dir / "p.failed.h5";
+  const CliRun r = therapy(dir, "name: t\nsimulator:\n  model: lumped-regional\n" + numerics + "therapy:\n  personalization: " +
+                                    result.string() + "\n  uncertainty: {method: unscented, sigma_points: simplex}\n"
+                                    "  lv_leads: [5]\n  sweep: none\n");
+  ASSERT_EQ(r.code, p.code) << r.out << r.err;  // 1 only for a personalisation not converged
+  const auto t5 = std::filesystem::exists(dir / "t.h5") ? dir / "t.h5" : dir / "t.failed.h5";
+  const app::io::Hdf5Reader th(t5);
+  EXPECT_EQ(th.read_strings("/points/names"), (std::vector<std::string>{"k_ATP", "vshare_basal"}));
+  EXPECT_NE(th.string_attribute("/summary", "personalization").find("t_shift marginalised"), std::string::npos);
+  EXPECT_EQ(summary(dir)["map"][0]["status"], "ok");
+
+  // personalize's own model at the estimate (the file's parameters, t_shift and vshare included).
+  const app::Config config = app::load_config(pcfg);
+  app::PersonalizeProblem problem = app::parse_personalize(config);
+  auto fitted = app::prepare_personalize_model(config, problem, model::into_steppable(config.simulator.make()));
+  const app::io::Hdf5Reader ph(result);
+  const Eigen::VectorXd theta = ph.read_vector("/parameters/values");
+  ASSERT_EQ(theta.size(), fitted->parameters().size());
+  EXPECT_GT(std::abs(theta(*fitted->parameters().index("vshare_basal"))), 1e-4);  // estimated, not at 0
+  const model::RunResult beat = fitted->run(theta);
+  ASSERT_TRUE(beat.status.ok()) << beat.status.message;
+  auto bare = config.simulator.make();
+  const model::RunResult unwrapped = bare->run(theta.head(bare->parameters().size()));
+  ASSERT_TRUE(unwrapped.status.ok());
+  double largest = 0.0, bare_difference = 0.0;
+  for (int s = 1; s <= 17; ++s) {
+    const std::string name = std::string(s < 10 ? "V_seg0" : "V_seg") + std::to_string(s);
+    const Eigen::VectorXd therapy_v = th.read_vector("/trajectories/baseline/" + name);  // mL
+    const auto c = beat.trajectory.channel_index(name);
+    ASSERT_TRUE(c) << name;
+    const Eigen::VectorXd fit_v = 1e6 * beat.trajectory.values.col(*c);
+    ASSERT_EQ(therapy_v.size(), fit_v.size()) << name;
+    largest = std::max(largest, (therapy_v - fit_v).cwiseAbs().maxCoeff());
+    const Eigen::VectorXd bare_v = 1e6 * unwrapped.trajectory.values.col(*unwrapped.trajectory.channel_index(name));
+    bare_difference = std::max(bare_difference, (bare_v - fit_v).cwiseAbs().maxCoeff() / fit_v.maxCoeff());
+  }
+  EXPECT_LT(largest, 1e-9);          // mL: the same model, to rounding
+  EXPECT_GT(bare_difference, 0.05);  // without the wrapper they would not be
+}
+
+// `uncertainty: {inflate: F}` multiplies the posterior covariance by F: the AHR's spread grows by
+// sqrt(F) for a response linear in eta, here 1.82 for F = 4 (measured: the AHR curves over the wider
+// spread of the two log contractilities, std 0.10 -> 0.20 in eta); `inflate: nis` needs the
+// mean NIS of a personalize result, which this hand-written file does not hold (exit 2 at the key).
+TEST(TherapyCommand, AnInflatedPosteriorWidensTheIntervalsBySquareRootOfTheFactor) {
+  const auto dir = scratch_dir();
+  write_personalization(dir / "p.h5", "lumped-regional", "completed");
+  const std::string base = std::string(kRegional) + "therapy:\n  personalization: p.h5\n  lv_leads: [5]\n  sweep: none\n"
+                                                    "  pv_loops: false\n";
+  ASSERT_EQ(therapy(dir, base).code, 0);
+  const double std1 = summary(dir)["map"][0]["AHR"]["std"].get<double>();
+  const CliRun r = therapy(dir, base + "  uncertainty: {inflate: 4}\n");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const double std4 = summary(dir)["map"][0]["AHR"]["std"].get<double>();
+  EXPECT_NEAR(std4 / std1, 1.82, 0.05) << std1 << " " << std4;
+  EXPECT_NE(summary(dir)["personalization"].get<std::string>().find("inflated x4"), std::string::npos);
+  const CliRun nis = therapy(dir, base + "  uncertainty: {inflate: nis}\n");
+  EXPECT_EQ(nis.code, 2);
+  EXPECT_NE(nis.err.find("therapy.yaml:10:"), std::string::npos) << nis.err;
+  EXPECT_NE(nis.err.find("mean NIS"), std::string::npos) << nis.err;
+  const CliRun small = therapy(dir, base + "  uncertainty: {inflate: 0.5}\n");
+  EXPECT_EQ(small.code, 2);
+  EXPECT_NE(small.err.find("a factor >= 1"), std::string::npos) << small.err;
 }
 
 // Bad input: exit 2, the message at file:line:column of the key, before any run.
