@@ -141,7 +141,7 @@ struct RoukfOptions {
   // Hessian), or when Phi fell by less than `map_objective_tolerance` per observation over the
   // last two steps and a finishing step along the valley does not lower it (0: off). The
   // covariance reported is then the Laplace one, A^-1. The iteration limit with Phi still
-  // falling, 8 rejected candidates in one step, a failed member of the slopes or a singular system
+  // falling, 9 rejected candidates in one step, a failed member of the slopes or a singular system
   // keep the last accepted point, say so in RoukfSummary::map_note and end the run as
   // kMapNotConverged (the estimate is not the MAP). 0: off.
   int map_iterations = 5;
