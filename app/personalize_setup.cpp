@@ -328,7 +328,7 @@ void parse_filter(const ConfigNode& f, PersonalizeProblem& out) {
   f.check_keys({"beats", "passes", "first_fraction", "pass_growth", "tempering", "sigma_scale",
                 "forgetting", "r_inflation", "sigma_points", "kappa", "spin_up", "failure_policy",
                 "max_retries", "shrink", "inflation", "threads", "map_iterations", "map_tolerance",
-                "noise_scale"});
+                "map_objective_tolerance", "noise_scale"});
   estimation::RoukfOptions& o = out.filter;
   o.beats = f.optional<int>("beats", 1);
   if (o.beats < 1) f["beats"].fail("expected an integer >= 1");
@@ -350,6 +350,10 @@ void parse_filter(const ConfigNode& f, PersonalizeProblem& out) {
   if (o.map_iterations < 0) f["map_iterations"].fail("expected an integer >= 0 (0: no MAP refinement)");
   o.map_tolerance = f.optional<double>("map_tolerance", o.map_tolerance);
   if (!(o.map_tolerance > 0)) f["map_tolerance"].fail("expected a positive number of posterior standard deviations");
+  o.map_objective_tolerance = f.optional<double>("map_objective_tolerance", o.map_objective_tolerance);
+  if (!(o.map_objective_tolerance >= 0)) {
+    f["map_objective_tolerance"].fail("expected a number >= 0 (a fall of Phi per observation; 0: off)");
+  }
   out.r_inflation = f.optional<double>("r_inflation", 1.0);
   if (!(out.r_inflation > 0)) f["r_inflation"].fail("expected a positive factor");
   if (f.has("sigma_points")) {

@@ -101,6 +101,15 @@ void write_roukf_json(const std::filesystem::path& path, const std::string& name
                            {"objective_at_filter_estimate", summary.map_statistic_filter},
                            {"objective_at_estimate", summary.map_objective},
                            {"runs", summary.map_runs}};
+    nlohmann::ordered_json history = nlohmann::ordered_json::array();
+    for (const estimation::RoukfMapStep& r : summary.map_history) {
+      history.push_back({{"objective", r.objective}, {"gauss_newton_std", r.gauss_newton_std},
+                         {"step_std", r.step_std}, {"predicted", r.predicted}, {"actual", r.actual},
+                         {"gain", r.gain}, {"damping", r.damping}, {"cos_previous", r.cos_previous},
+                         {"rejected", r.rejected}, {"out_of_bounds", r.out_of_bounds},
+                         {"accepted", r.accepted}, {"extrapolated", r.extrapolated}});
+    }
+    j["map_refinement"]["history"] = history;
   }
   if (summary.channel_chi2.size() == static_cast<Eigen::Index>(problem.data.channels.size())) {
     for (size_t c = 0; c < problem.data.channels.size(); ++c) {

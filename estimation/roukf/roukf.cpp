@@ -8,6 +8,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <exception>
@@ -88,6 +89,9 @@ std::string RoukfOptions::validate() const {
     }
   }
   if (!(map_tolerance > 0.0 && std::isfinite(map_tolerance))) return "roukf: map_tolerance must be positive";
+  if (!(map_objective_tolerance >= 0.0 && std::isfinite(map_objective_tolerance))) {
+    return "roukf: map_objective_tolerance must be >= 0";
+  }
   if (max_retries < 0) return "roukf: max_retries must be >= 0";
   if (!(shrink > 0 && shrink < 1)) return "roukf: shrink must lie in (0, 1)";
   if (!(inflation >= 0 && std::isfinite(inflation))) return "roukf: inflation must be >= 0";
@@ -511,30 +515,45 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const Prior& 
       Eigen::MatrixXd A;
       Eigen::VectorXd gradient;  // W^T w - P0^-1 (eta - eta0) = -grad Phi / 2: A d = gradient
     };
-    auto evaluate = [&](const Eigen::VectorXd& eta, Point& out) -> std::string {
-      Eigen::MatrixXd etas = eta.replicate(1, 2 * p + 1);
+    // One whole-data run at eta (a candidate): its row (observations at the entries, final state).
+    auto probe = [&](const Eigen::VectorXd& eta, Eigen::VectorXd& row) -> std::string {
+      const EnsembleResult res = whole_data_runs(eta);
+      summary.map_runs += 1;
+      summary.member_runs += 1;
+      if (!res.status[0].ok()) {
+        return "a whole-data member failed (" + describe_theta(space, theta_of(eta), estimated) +
+               "): " + res.status[0].message;
+      }
+      row = res.Z.row(0).transpose();
+      return {};
+    };
+    // centre: the probe() row at eta when it was run already (then 2p members, else 2p + 1).
+    auto evaluate = [&](const Eigen::VectorXd& eta, Point& out, const Eigen::VectorXd* centre = nullptr) -> std::string {
+      const int c0 = centre ? 0 : 1;  // columns: [centre,] +h_j e_j, -h_j e_j
+      Eigen::MatrixXd etas = eta.replicate(1, 2 * p + c0);
       for (int j = 0; j < p; ++j) {
-        etas(j, 1 + 2 * j) += h(j);
-        etas(j, 2 + 2 * j) -= h(j);
+        etas(j, c0 + 2 * j) += h(j);
+        etas(j, c0 + 1 + 2 * j) -= h(j);
       }
       const EnsembleResult res = whole_data_runs(etas);
-      summary.map_runs += 2 * p + 1;
-      summary.member_runs += 2 * p + 1;
-      for (int i = 0; i < 2 * p + 1; ++i) {
+      summary.map_runs += 2 * p + c0;
+      summary.member_runs += 2 * p + c0;
+      for (int i = 0; i < 2 * p + c0; ++i) {
         if (!res.status[static_cast<size_t>(i)].ok()) {
           return "a whole-data member failed (" +
                  describe_theta(space, theta_of(etas.col(i)), estimated) + "): " +
                  res.status[static_cast<size_t>(i)].message;
         }
       }
-      const Eigen::MatrixXd obs = res.Z.leftCols(n_obs).transpose();  // n_obs x (2p + 1)
-      const Eigen::VectorXd w = whitened(y_obs - obs.col(0));
+      const Eigen::MatrixXd obs = res.Z.leftCols(n_obs).transpose();  // n_obs x (2p [+ 1])
+      const Eigen::VectorXd h0 = centre ? Eigen::VectorXd(centre->head(n_obs)) : Eigen::VectorXd(obs.col(0));
+      const Eigen::VectorXd w = whitened(y_obs - h0);
       Eigen::MatrixXd H(n_obs, p);  // d h / d eta
-      for (int j = 0; j < p; ++j) H.col(j) = (obs.col(1 + 2 * j) - obs.col(2 + 2 * j)) / (2.0 * h(j));
+      for (int j = 0; j < p; ++j) H.col(j) = (obs.col(c0 + 2 * j) - obs.col(c0 + 1 + 2 * j)) / (2.0 * h(j));
       const Eigen::MatrixXd W = whitened(H);  // = -dw/deta
       out.eta = eta;
-      out.state = res.Z.row(0).tail(ny).transpose();
-      out.phi = objective(eta, obs.col(0));
+      out.state = centre ? Eigen::VectorXd(centre->tail(ny)) : Eigen::VectorXd(res.Z.row(0).tail(ny).transpose());
+      out.phi = objective(eta, h0);
       // With noise scales: each entry weighted by E[1 / s_c^2] of its channel at this point
       // (iteratively reweighted least squares on the marginal, channel_noise_scale.h).
       Eigen::VectorXd weight = Eigen::VectorXd::Ones(n_obs);
@@ -554,6 +573,42 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const Prior& 
     }
     summary.map_statistic_filter = at.phi;
     std::ostringstream note;
+    // Damped Gauss-Newton on Phi (docs/estimation.md s.4.7): the step s = d / (1 + lambda) solves
+    // (1 + lambda) A s = gradient (Levenberg-Marquardt with A as the damping matrix: the
+    // Gauss-Newton direction, shortened), lambda from the gain ratio; a candidate costs one
+    // whole-data run, the slopes at an accepted point 2p more. Stops on the step or on Phi.
+    const int max_rejections = 8;
+    double lambda = 0.0, nu = 2.0;
+    std::vector<double> objectives{at.phi};  // at every accepted point
+    std::vector<double> lengths;             // of every accepted step [posterior std]
+    Eigen::VectorXd previous_step;
+    int extrapolations = 0;
+    const double objective_drop = options.map_objective_tolerance * n_obs;
+    auto fell_over_two = [&]() {
+      return objectives.size() >= 3 ? objectives[objectives.size() - 3] - objectives.back()
+                                    : std::numeric_limits<double>::infinity();
+    };
+    // Moves `at` to eta (whose probe() row is `row`) with a new linearisation; a failed member
+    // keeps `at` and returns why.
+    auto move_to = [&](const Eigen::VectorXd& eta, const Eigen::VectorXd& row, RoukfMapStep& rec,
+                       const Eigen::VectorXd& step) -> std::string {
+      Point next;
+      if (std::string why = evaluate(eta, next, &row); !why.empty()) return why;
+      rec.accepted = true;
+      rec.objective = next.phi;
+      lengths.push_back(std::sqrt(std::max(0.0, step.dot(at.A * step))));
+      if (previous_step.size() == p) {
+        const double norm = std::sqrt(previous_step.dot(at.A * previous_step));
+        if (norm > 0 && lengths.back() > 0) rec.cos_previous = step.dot(at.A * previous_step) / (lengths.back() * norm);
+      }
+      previous_step = step;
+      at = std::move(next);
+      objectives.push_back(at.phi);
+      ++summary.map_steps;
+      x.tail(p) = at.eta;
+      x.head(ny) = at.state;
+      return {};
+    };
     for (int it = 0;; ++it) {
       const Eigen::LDLT<Eigen::MatrixXd> A_ldlt(at.A);
       const Eigen::VectorXd d = A_ldlt.solve(at.gradient);
@@ -575,33 +630,102 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const Prior& 
       }
       if (it == options.map_iterations) {
         note << "stopped after " << summary.map_steps << " step(s) with a step of " << std::setprecision(3)
-             << length << " posterior std left (map_iterations)";
+             << length << " posterior std left";
+        if (std::isfinite(fell_over_two())) note << " and Phi still falling by " << fell_over_two() << " over the last 2 steps";
+        note << " (map_iterations)";
         break;
       }
-      Point next;
-      double lambda = 1.0;
-      bool accepted = false;
+      RoukfMapStep rec;
+      rec.objective = at.phi;
+      rec.gauss_newton_std = length;
+      rec.actual = std::numeric_limits<double>::quiet_NaN();
       std::string failed;
-      for (int halving = 0; halving <= 4; ++halving, lambda *= 0.5) {
-        // A point outside the simulator's bounds (possible where a transform does not bound them)
-        // counts as a step that does not lower the objective.
-        if (!out_of_bounds(space, theta_of(at.eta + lambda * d), estimated).empty()) continue;
-        failed = evaluate(at.eta + lambda * d, next);
-        if (!failed.empty()) break;
-        if (next.phi <= at.phi) {
-          accepted = true;
+      Eigen::VectorXd s, row;
+      for (int attempt = 0; attempt <= max_rejections; ++attempt) {
+        s = d / (1.0 + lambda);
+        rec.damping = lambda;
+        rec.step_std = std::sqrt(std::max(0.0, s.dot(at.A * s)));
+        rec.predicted = 2.0 * at.gradient.dot(s) - s.dot(at.A * s);
+        bool lower = false;
+        // A point outside the simulator's bounds (possible where a transform does not bound
+        // them) or whose run fails counts as a step that does not lower the objective.
+        if (!out_of_bounds(space, theta_of(at.eta + s), estimated).empty()) {
+          ++rec.out_of_bounds;
+        } else if (failed = probe(at.eta + s, row); failed.empty()) {
+          const double phi = objective(at.eta + s, row.head(n_obs));
+          rec.actual = at.phi - phi;
+          rec.gain = rec.actual / rec.predicted;
+          lower = phi < at.phi;
+        }
+        if (lower) {
+          // Nielsen 1999 (IMM-REP-1999-05, eq. 2.6): lambda follows the gain ratio.
+          lambda *= std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rec.gain - 1.0, 3));
+          if (lambda < 1e-6) lambda = 0.0;
+          nu = 2.0;
           break;
         }
+        ++rec.rejected;
+        lambda = lambda == 0.0 ? 1.0 : lambda * nu;
+        nu *= 2.0;
       }
-      if (!accepted) {
-        note << "stopped after " << summary.map_steps << " step(s): "
-             << (failed.empty() ? "a step halved 4 times did not lower the objective" : failed);
+      if (rec.rejected > max_rejections) {
+        summary.map_history.push_back(rec);
+        note << "stopped after " << summary.map_steps << " step(s): " << max_rejections + 1
+             << " damped steps did not lower the objective (the last " << std::setprecision(3) << rec.step_std
+             << " posterior std, damping " << rec.damping << ")" << (failed.empty() ? "" : "; " + failed);
         break;
       }
-      at = std::move(next);
-      ++summary.map_steps;
-      x.tail(p) = at.eta;
-      x.head(ny) = at.state;
+      if (std::string why = move_to(at.eta + s, row, rec, s); !why.empty()) {
+        summary.map_history.push_back(rec);
+        note << "stopped after " << summary.map_steps << " step(s): " << why;
+        break;
+      }
+      summary.map_history.push_back(rec);
+      // Objective-based stop, with a finishing step along the valley first (Aitken's
+      // extrapolation of a linearly converging sequence; Brezinski & Redivo Zaglia 1991, s.1.3).
+      if (!(options.map_objective_tolerance > 0) || !(fell_over_two() < objective_drop)) continue;
+      bool finished_moving = false;
+      if (extrapolations < 5 && lengths.size() >= 2) {
+        const double q = lengths.back() / lengths[lengths.size() - 2];
+        const double factor = q < 1.0 ? std::min(q / (1.0 - q), 50.0) : 1.0;
+        const Eigen::VectorXd last = previous_step;
+        for (const double f : {factor, 0.25 * factor}) {
+          const Eigen::VectorXd cand = at.eta + f * last;
+          RoukfMapStep ext;
+          ext.objective = at.phi;
+          ext.extrapolated = true;
+          ext.gauss_newton_std = length;
+          ext.step_std = f * lengths.back();
+          ext.actual = ext.predicted = ext.gain = std::numeric_limits<double>::quiet_NaN();
+          if (!out_of_bounds(space, theta_of(cand), estimated).empty()) {
+            ext.out_of_bounds = 1;
+            summary.map_history.push_back(ext);
+            continue;
+          }
+          if (!probe(cand, row).empty()) continue;
+          const double phi = objective(cand, row.head(n_obs));
+          ext.actual = at.phi - phi;
+          if (phi < at.phi && move_to(cand, row, ext, f * last).empty()) {
+            ++extrapolations;
+            summary.map_history.push_back(ext);
+            finished_moving = true;
+            break;
+          }
+          ext.rejected = 1;
+          summary.map_history.push_back(ext);
+        }
+      }
+      if (finished_moving) continue;
+      {
+        const Eigen::VectorXd d_next = at.A.ldlt().solve(at.gradient);
+        summary.map_last_step_std = std::sqrt(std::max(0.0, d_next.dot(at.A * d_next)));
+      }
+      summary.map_converged = true;
+      note << "converged after " << summary.map_steps << " step(s) (objective): Phi fell by "
+           << std::setprecision(3) << fell_over_two() << " over the last 2 steps (< "
+           << options.map_objective_tolerance << " per observation = " << objective_drop
+           << "), the next Gauss-Newton step " << summary.map_last_step_std << " posterior std";
+      break;
     }
     summary.map_note = note.str();
     summary.map_objective = at.phi;

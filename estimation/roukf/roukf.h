@@ -130,19 +130,23 @@ struct RoukfOptions {
   RoukfPassMode pass_mode = RoukfPassMode::kRepeat;
   double first_fraction = 1e-3;  // kSplit: phi_1, in (0, 1]
   double pass_growth = 1.0;      // kSplit: information a pass may add, relative to the spread
-  // kSplit: after the last pass, at most `map_iterations` Gauss-Newton steps on the whole-data MAP
-  // objective Phi(eta) = sum_k r_k^T R^-1 r_k + (eta - eta0)^T P0^-1 (eta - eta0), started at the
-  // filter's estimate (docs/estimation.md s.4.7). The split passes end about one posterior std
-  // from the MAP along the best-informed direction on the regional twins, also without noise; the
-  // steps remove that. Each step runs 2p + 1 whole-data members (central differences of the
-  // observations in eta, step 0.1 posterior std), in parallel through the ensemble; it stops when
-  // a step is shorter than `map_tolerance` posterior standard deviations (sqrt(d^T A d), A the
-  // Gauss-Newton Hessian). The covariance reported is then the Laplace one, A^-1. A step that does
-  // not lower Phi is halved (4 times at most); a failed member keeps the last accepted point. Each
-  // such end, and the iteration limit, is recorded in RoukfSummary::map_note and ends the run as
+  // kSplit: after the last pass, at most `map_iterations` damped Gauss-Newton steps on the
+  // whole-data MAP objective Phi(eta) = sum_k r_k^T R^-1 r_k + (eta - eta0)^T P0^-1 (eta - eta0),
+  // started at the filter's estimate (docs/estimation.md s.4.7). The split passes end about one
+  // posterior std from the MAP on the regional twins; on foreign data several. The slopes are
+  // central differences (2p whole-data members, step 0.1 filter posterior std), run in parallel
+  // through the ensemble; the step is the Gauss-Newton one shortened by 1 + lambda, lambda from
+  // the gain ratio, each candidate one whole-data run. Converged when the Gauss-Newton step is
+  // shorter than `map_tolerance` posterior standard deviations (sqrt(d^T A d), A the Gauss-Newton
+  // Hessian), or when Phi fell by less than `map_objective_tolerance` per observation over the
+  // last two steps and a finishing step along the valley does not lower it (0: off). The
+  // covariance reported is then the Laplace one, A^-1. The iteration limit with Phi still
+  // falling, 9 rejected candidates in one step, a failed member of the slopes or a singular system
+  // keep the last accepted point, say so in RoukfSummary::map_note and end the run as
   // kMapNotConverged (the estimate is not the MAP). 0: off.
   int map_iterations = 5;
   double map_tolerance = 0.01;
+  double map_objective_tolerance = 0.002;  // per observation; 0: the step test only
   // Model error (docs/estimation.md s.4.8): with a value, the MAP refinement takes every observed
   // channel's noise covariance as s_c^2 R_c with s_c^2 ~ InvGamma(*noise_scale) and integrates the
   // scales out (estimation/channel_noise_scale.h): Gauss-Newton with each channel weighted by
@@ -222,6 +226,24 @@ enum class RoukfTermination {
 };
 const char* to_string(RoukfTermination t);
 
+// One step of the MAP refinement (RoukfSummary::map_history; docs/estimation.md s.4.7). Lengths
+// in posterior standard deviations, sqrt(s^T A s) with A the Gauss-Newton Hessian at the point the
+// step starts from; objectives in the units of RoukfSummary::map_objective.
+struct RoukfMapStep {
+  double objective = 0.0;       // Phi after the step (the start point's when none was accepted)
+  double gauss_newton_std = 0.0;  // the undamped Gauss-Newton step
+  double step_std = 0.0;        // the step taken (or the last one tried)
+  double predicted = 0.0;       // decrease of Phi the quadratic model promises for it
+  double actual = 0.0;          // decrease of Phi it made (NaN when not run)
+  double gain = 0.0;            // actual / predicted
+  double damping = 0.0;         // Levenberg-Marquardt lambda the step was solved with
+  double cos_previous = 0.0;    // cosine between this step and the last accepted one (A metric)
+  int rejected = 0;             // candidates that did not lower Phi
+  int out_of_bounds = 0;        // candidates outside the simulator's bounds (not run)
+  bool accepted = false;
+  bool extrapolated = false;    // a finishing step along the valley (Aitken)
+};
+
 struct RoukfSummary {
   RoukfTermination termination = RoukfTermination::kInvalidInput;
   std::string message;  // why it stopped; for kMemberFailed the member's parameters
@@ -286,6 +308,7 @@ struct RoukfSummary {
   double map_objective = std::numeric_limits<double>::quiet_NaN();  // Phi at the last accepted point
   int map_runs = 0;
   std::string map_note;
+  std::vector<RoukfMapStep> map_history;
   Eigen::VectorXd eta_filter;
   Eigen::MatrixXd eta_covariance_filter;
   // kSplit, from the run at the estimate: per observed channel (RoukfData::channels order) the

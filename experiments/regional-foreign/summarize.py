@@ -57,6 +57,10 @@ def summarize(name, j):
         "case": name,
         "termination": j["termination"],
         "map_converged": bool(mr.get("converged", False)),
+        "map_steps": mr.get("steps", 0), "map_runs": mr.get("runs", 0),
+        "map_on": ("objective" if "(objective)" in mr.get("note", "") else "step")
+                  if mr.get("converged") else "not converged",
+        "map_fell": mr.get("objective_at_filter_estimate", float("nan")) - mr.get("objective_at_estimate", float("nan")),
         "nis": j["nis_mean"], "band": (lo, hi),
         "nis_within_twice_band": j["nis_mean"] <= 2 * hi,
         "median_kPa": median / 1e3,
@@ -86,14 +90,16 @@ def main():
             print(f"{name}: no results ({f})", file=sys.stderr)
             continue
         rows.append(summarize(name, json.loads(f.read_text())))
-    print("| case | ended | NIS (95 % band) | median sigma0 [kPa] | lowest three (x median) | "
-          "estimated scar (< 60 %) | AUC | late healthy in scar | min / median | runs | time [s] |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    print("| case | ended | MAP refinement: stop, steps, runs, Phi fell by | NIS (95 % band) | median sigma0 [kPa] | "
+          "lowest three (x median) | estimated scar (< 60 %) | AUC | late healthy in scar | min / median | runs | "
+          "time [s] |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         lowest = ", ".join(f"{s}: {v:.2f}" for s, v in r["lowest"])
         ended = r["termination"] + ("" if r["termination"] == "completed" else
                                     (" (MAP converged)" if r["map_converged"] else ""))
-        print(f"| {r['case']} | {ended} | {r['nis']:.1f} ({r['band'][0]:.1f}-{r['band'][1]:.1f}) | "
+        refinement = f"{r['map_on']}, {r['map_steps']}, {r['map_runs']}, {r['map_fell']:.1f}"
+        print(f"| {r['case']} | {ended} | {refinement} | {r['nis']:.1f} ({r['band'][0]:.1f}-{r['band'][1]:.1f}) | "
               f"{r['median_kPa']:.1f} | {lowest} | {r['scar'] or '-'} | "
               f"{'-' if r['auc'] != r['auc'] else format(r['auc'], '.2f')} | "
               f"{r['late_healthy_in_scar'] or 'none'} | {r['min_rel']:.2f} | {r['runs']} | {r['seconds']:.0f} |")

@@ -112,7 +112,8 @@ TEST(PersonalizeCommand, BadSplitPassSettingsAreReportedAtTheirLineAndColumn) {
         {"sigma_scale: 1.5", "expected a number in (0, 1]"},
         {"tempering: -0.5", "expected a number >= 0"},
         {"map_iterations: -1", "expected an integer >= 0"},
-        {"map_tolerance: 0", "expected a positive number of posterior standard deviations"}}) {
+        {"map_tolerance: 0", "expected a positive number of posterior standard deviations"},
+        {"map_objective_tolerance: -0.1", "expected a number >= 0 (a fall of Phi per observation"}}) {
     expect_bad_input(dir, config_with(estimate, filter), "bad.yaml:12:", what);
   }
 }
