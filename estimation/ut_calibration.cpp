@@ -1,5 +1,6 @@
 #include "estimation/ut_calibration.h"
 
+#include "estimation/damping.h"
 #include "estimation/enum_names.h"
 #include "estimation/sensitivity/sobol_sequence.h"
 
@@ -860,7 +861,7 @@ UtSummary UtCalibration::run_local(const Start& start, const EnsembleOptions& en
       const double n1 = d1.cwiseQuotient(sigma0).norm(), n0 = (e1 - e0).cwiseQuotient(sigma0).norm();
       if (!(n1 > 0)) return false;
       const double q = n0 > 0 ? n1 / n0 : 0.0;
-      const double factor = q > 0 && q < 1 ? std::min(q / (1 - q), kMaxExtrapolation) : 1.0;
+      const double factor = valley_extrapolation_factor(q, kMaxExtrapolation);
       summary.extrapolations += 1;
       for (const double f : {factor, 0.25 * factor}) {
         const Eigen::VectorXd eta_x = eta_c + f * d1;
@@ -1127,8 +1128,7 @@ UtSummary UtCalibration::run_local(const Start& start, const EnsembleOptions& en
           lin->lambda = lambda;  // the damping of this step, raised if the step is reverted
           lin->nu = nu;
           if (lambda > 0) {
-            lambda *= std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3));
-            if (lambda < 1e-3) lambda = 0.0;
+            lambda = damping_after_accepted_step(lambda, rho, 1e-3);
           }
           nu = 2.0;
           secant_trust = rho;

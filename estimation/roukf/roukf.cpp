@@ -1,6 +1,7 @@
 #include "estimation/roukf/roukf.h"
 
 #include "estimation/channel_noise_scale.h"
+#include "estimation/damping.h"
 #include "estimation/enum_names.h"
 #include "estimation/fit_metrics.h"
 #include "estimation/roukf/steppable_forward_model.h"
@@ -658,9 +659,7 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const Prior& 
           lower = phi < at.phi;
         }
         if (lower) {
-          // Nielsen 1999 (IMM-REP-1999-05, eq. 2.6): lambda follows the gain ratio.
-          lambda *= std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rec.gain - 1.0, 3));
-          if (lambda < 1e-6) lambda = 0.0;
+          lambda = damping_after_accepted_step(lambda, rec.gain, 1e-6);  // Nielsen 1999
           nu = 2.0;
           break;
         }
@@ -687,7 +686,7 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const Prior& 
       bool finished_moving = false;
       if (extrapolations < 5 && lengths.size() >= 2) {
         const double q = lengths.back() / lengths[lengths.size() - 2];
-        const double factor = q < 1.0 ? std::min(q / (1.0 - q), 50.0) : 1.0;
+        const double factor = valley_extrapolation_factor(q, 50.0);
         const Eigen::VectorXd last = previous_step;
         for (const double f : {factor, 0.25 * factor}) {
           const Eigen::VectorXd cand = at.eta + f * last;
