@@ -509,9 +509,10 @@ UtSummary UtCalibration::run_global() {
   std::vector<UtSummary> locals(static_cast<size_t>(g.keep));
   const int side_by_side = g.concurrent && ensemble.ranks() == 1 ? std::min(ensemble.workers(), g.keep) : 1;
   if (side_by_side > 1) {
-    // One local run per thread (std::threads; each run's own ensemble is an OpenMP team of
-    // threads / side_by_side), handed out in order of the screen; the first failure (an
-    // interruption) stops the hand-out and is rethrown once every thread has finished.
+    // One local run per thread (std::threads, not the WorkerPool: inside an OpenMP loop each run's
+    // own ensemble team of threads / side_by_side would be a nested region of one thread), handed
+    // out in order of the screen; the first failure (an interruption) stops the hand-out and is
+    // rethrown once every thread has finished.
     EnsembleOptions inner = options_.ensemble;
     inner.backend = Backend::kThreads;
     inner.communicator = nullptr;
