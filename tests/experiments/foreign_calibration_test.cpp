@@ -38,8 +38,8 @@ std::vector<ForeignCase> foreign_cases() {
   for (const auto& c : YAML::LoadFile(kDir + "configs/data/foreign/cases.yaml")["cases"]) {
     // All 16 cases: the eight of issue 11 (elastance and one-fibre phenotypes, 30 frames), the
     // Mooney-Rivlin family and the harder acquisitions of issue 45. Not every case meets the
-    // targets yet (experiments/foreign-data/README.md, "Outcome (issue 45)": the misses and why);
-    // this test fails on those until they do.
+    // targets yet (experiments/foreign-data/README.md, "Outcome (issue 45, speed)" and "The slow
+    // bench with its reference": the misses and why); this test fails on those until they do.
     out.push_back({c["name"].as<std::string>(), c["period"].as<double>(), c["noise"]["V_lv"].as<double>(),
                    c["noise"]["P_lv"].as<double>()});
   }
