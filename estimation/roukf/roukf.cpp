@@ -629,6 +629,16 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const Prior& 
              << std::setprecision(3) << length << " posterior std";
         break;
       }
+      if (it == options.map_iterations && options.map_objective_tolerance > 0 && fell_over_two() < objective_drop) {
+        // The limit reached right after a finishing step that lowered Phi by less than the
+        // tolerance: the objective stop holds there (the limit is not why it ends).
+        summary.map_converged = true;
+        note << "converged after " << summary.map_steps << " step(s) (objective, at map_iterations): Phi fell by "
+             << std::setprecision(3) << fell_over_two() << " over the last 2 steps (< "
+             << options.map_objective_tolerance << " per observation = " << objective_drop
+             << "), the next Gauss-Newton step " << length << " posterior std";
+        break;
+      }
       if (it == options.map_iterations) {
         note << "stopped after " << summary.map_steps << " step(s) with a step of " << std::setprecision(3)
              << length << " posterior std left";

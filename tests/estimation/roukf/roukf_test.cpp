@@ -991,5 +991,39 @@ TEST(Roukf, AValleyRefinementStillMovingAtItsIterationLimitIsNotConverged) {
   EXPECT_TRUE(s.has_estimate());
 }
 
+// The iteration limit reached right after a finishing step that left Phi falling by less than the
+// tolerance over the last 2 steps: the objective stop holds, so the refinement is converged (a
+// fit that no longer moves is not stopped by its limit), with the steps and Phi of the long run
+// up to there.
+TEST(Roukf, ALimitReachedAfterAFinishingStepWithinTheToleranceIsConvergedOnTheObjective) {
+  ValleyCase full;
+  const double tolerance = 0.002, drop = tolerance * 12;
+  const RoukfSummary s0 = full.run(tolerance);
+  ASSERT_TRUE(s0.map_converged) << s0.map_note;
+  // The loop iteration after the first accepted finishing step whose last 2 steps fell by < drop.
+  int iterations = 0, limit = -1, steps = 0;
+  std::vector<double> accepted{s0.map_statistic_filter};
+  for (const RoukfMapStep& r : s0.map_history) {
+    if (!r.extrapolated) ++iterations;
+    if (!r.accepted) continue;
+    accepted.push_back(r.objective);
+    if (r.extrapolated && accepted[accepted.size() - 3] - accepted.back() < drop) {
+      limit = iterations;
+      steps = static_cast<int>(accepted.size()) - 1;
+      break;
+    }
+  }
+  ASSERT_GT(limit, 0) << "no finishing step within the tolerance in the valley run";
+  ASSERT_LT(limit, full.o.map_iterations);
+  ValleyCase v;
+  v.o.map_iterations = limit;
+  const RoukfSummary s = v.run(tolerance);
+  EXPECT_TRUE(s.ok()) << s.message;
+  EXPECT_TRUE(s.map_converged);
+  EXPECT_NE(s.map_note.find("(objective, at map_iterations)"), std::string::npos) << s.map_note;
+  EXPECT_EQ(s.map_steps, steps);
+  EXPECT_DOUBLE_EQ(s.map_objective, accepted.back());
+}
+
 }  // namespace
 }  // namespace sigmaheart::estimation
