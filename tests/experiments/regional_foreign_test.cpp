@@ -72,7 +72,9 @@ Outcome personalize(const std::string& config_file, const regional_foreign::Fore
   for (const auto& [seg, v] : o.sigma0) order.emplace_back(v / o.stats.median, seg);
   std::sort(order.begin(), order.end());
   for (size_t k = 0; k < order.size() && k < 4; ++k) {
-    lowest += (k ? ", " : "") + std::to_string(order[k].second) + ": " + std::to_string(order[k].first).substr(0, 4);
+    char entry[32];
+    std::snprintf(entry, sizeof entry, "%s%d: %.2f", k ? ", " : "", order[k].second, order[k].first);
+    lowest += entry;
   }
   std::printf("%s: %s; MAP refinement %d steps, %d runs (%s); NIS %.1f (band %.1f-%.1f); median sigma0 %.1f kPa, "
               "lowest %s; AUC %.2f; min/median %.2f; %d member runs\n",
