@@ -589,6 +589,15 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const Prior& 
       return objectives.size() >= 3 ? objectives[objectives.size() - 3] - objectives.back()
                                     : std::numeric_limits<double>::infinity();
     };
+    // The objective stop: Phi fell by less than objective_drop over the last two accepted steps.
+    auto converged_on_objective = [&](const char* how, double next_step_std) {
+      summary.map_last_step_std = next_step_std;
+      summary.map_converged = true;
+      note << "converged after " << summary.map_steps << " step(s)" << how << ": Phi fell by "
+           << std::setprecision(3) << fell_over_two() << " over the last 2 steps (< "
+           << options.map_objective_tolerance << " per observation = " << objective_drop
+           << "), the next Gauss-Newton step " << next_step_std << " posterior std";
+    };
     // Moves `at` to eta (whose probe() row is `row`) with a new linearisation; a failed member
     // keeps `at` and returns why.
     auto move_to = [&](const Eigen::VectorXd& eta, const Eigen::VectorXd& row, RoukfMapStep& rec,
@@ -632,11 +641,7 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const Prior& 
       if (it == options.map_iterations && options.map_objective_tolerance > 0 && fell_over_two() < objective_drop) {
         // The limit reached right after a finishing step that lowered Phi by less than the
         // tolerance: the objective stop holds there (the limit is not why it ends).
-        summary.map_converged = true;
-        note << "converged after " << summary.map_steps << " step(s) (objective, at map_iterations): Phi fell by "
-             << std::setprecision(3) << fell_over_two() << " over the last 2 steps (< "
-             << options.map_objective_tolerance << " per observation = " << objective_drop
-             << "), the next Gauss-Newton step " << length << " posterior std";
+        converged_on_objective(" (objective, at map_iterations)", length);
         break;
       }
       if (it == options.map_iterations) {
@@ -725,15 +730,8 @@ RoukfSummary run_roukf(const model::SteppableSimulator& simulator, const Prior& 
         }
       }
       if (finished_moving) continue;
-      {
-        const Eigen::VectorXd d_next = at.A.ldlt().solve(at.gradient);
-        summary.map_last_step_std = std::sqrt(std::max(0.0, d_next.dot(at.A * d_next)));
-      }
-      summary.map_converged = true;
-      note << "converged after " << summary.map_steps << " step(s) (objective): Phi fell by "
-           << std::setprecision(3) << fell_over_two() << " over the last 2 steps (< "
-           << options.map_objective_tolerance << " per observation = " << objective_drop
-           << "), the next Gauss-Newton step " << summary.map_last_step_std << " posterior std";
+      const Eigen::VectorXd d_next = at.A.ldlt().solve(at.gradient);
+      converged_on_objective(" (objective)", std::sqrt(std::max(0.0, d_next.dot(at.A * d_next))));
       break;
     }
     summary.map_note = note.str();

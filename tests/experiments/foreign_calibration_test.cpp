@@ -13,6 +13,7 @@
 #include "estimation/forward_model.h"
 #include "estimation/least_squares.h"
 #include "estimation/ut_calibration.h"
+#include "tests/support/case_name.h"
 
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
@@ -68,7 +69,7 @@ CurveErrors curve_errors(const observers::ObservationSet& obs, const Eigen::Vect
   return {nv ? 100 * v_sum / nv : NAN, np && p_peak > 0 ? 100 * std::sqrt(p_sq / np) / p_peak : NAN};
 }
 
-class ForeignCalibration : public testing::TestWithParam<ForeignCase> {};
+class ForeignCalibration : public ::testing::TestWithParam<ForeignCase> {};
 
 TEST_P(ForeignCalibration, ShippedConfigMeetsTheIssueTargets) {
   const ForeignCase& c = GetParam();
@@ -108,13 +109,9 @@ TEST_P(ForeignCalibration, ShippedConfigMeetsTheIssueTargets) {
   EXPECT_LE(s.objective, 1.2 * ref.cost) << c.name << ": the UT missed the multi-start MAP point";
 }
 
-INSTANTIATE_TEST_SUITE_P(ForeignBench, ForeignCalibration, testing::ValuesIn(foreign_cases()),
-                         [](const testing::TestParamInfo<ForeignCase>& param) {
-                           std::string n = param.param.name;
-                           for (char& ch : n) {
-                             if (ch == '-') ch = '_';
-                           }
-                           return n;
+INSTANTIATE_TEST_SUITE_P(ForeignBench, ForeignCalibration, ::testing::ValuesIn(foreign_cases()),
+                         [](const ::testing::TestParamInfo<ForeignCase>& param) {
+                           return testing::case_test_name(param.param.name);
                          });
 
 }  // namespace

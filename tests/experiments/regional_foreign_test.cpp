@@ -19,6 +19,7 @@
 #include "app/personalize_setup.h"
 #include "estimation/roukf/roukf.h"
 #include "experiments/regional-foreign/regional_foreign_cases.h"
+#include "tests/support/case_name.h"
 
 #include <gtest/gtest.h>
 
@@ -145,7 +146,7 @@ TEST(RegionalForeignMini, ASmallLadInfarctIsEstimatedBelowTheOtherSegments) {
 
 // ---- the full bench (slow) ----
 
-class RegionalForeignBench : public testing::TestWithParam<regional_foreign::ForeignCase> {};
+class RegionalForeignBench : public ::testing::TestWithParam<regional_foreign::ForeignCase> {};
 
 TEST_P(RegionalForeignBench, ShippedConfigMeetsTheIssueTargets) {
   const regional_foreign::ForeignCase& c = GetParam();
@@ -170,13 +171,9 @@ TEST_P(RegionalForeignBench, ShippedConfigMeetsTheIssueTargets) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Cases, RegionalForeignBench, testing::ValuesIn(regional_foreign::cases()),
-                         [](const testing::TestParamInfo<regional_foreign::ForeignCase>& param) {
-                           std::string n = param.param.name;
-                           for (char& ch : n) {
-                             if (ch == '-') ch = '_';
-                           }
-                           return n;
+INSTANTIATE_TEST_SUITE_P(Cases, RegionalForeignBench, ::testing::ValuesIn(regional_foreign::cases()),
+                         [](const ::testing::TestParamInfo<regional_foreign::ForeignCase>& param) {
+                           return testing::case_test_name(param.param.name);
                          });
 
 }  // namespace
