@@ -166,8 +166,14 @@ TherapyProblem parse_therapy(const Config& config) {
     t["uncertainty"].fail(o.propagation.validate(np));
   if (t.has("responder_threshold")) o.responder_threshold = t["responder_threshold"].as_quantity("%");
   if (t.has("intrinsic_conduction")) o.intrinsic_conduction = t["intrinsic_conduction"].as<bool>();
-  o.graph.conduction_velocity = t.optional_quantity("conduction_velocity", "m/s", o.graph.conduction_velocity);
-  if (!o.graph.validate().empty()) t["conduction_velocity"].fail(o.graph.validate());
+  // conduction_velocity: a speed, or `intrinsic` (the intrinsic sequence's, estimation/therapy/therapy.h).
+  if (t.has("conduction_velocity") && t["conduction_velocity"].is_scalar() &&
+      t["conduction_velocity"].as<std::string>() == "intrinsic") {
+    o.velocity_from_sequence = true;
+  } else {
+    o.graph.conduction_velocity = t.optional_quantity("conduction_velocity", "m/s", o.graph.conduction_velocity);
+    if (!o.graph.validate().empty()) t["conduction_velocity"].fail(o.graph.validate());
+  }
 
   if (t.has("timing")) {
     const ConfigNode n = t["timing"];

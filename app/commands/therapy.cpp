@@ -59,6 +59,9 @@ int run_therapy(const StudyOptions& o, CommandContext& ctx) {
     throw InputError(config.file.root()["therapy"].location(), e.what());
   }
   progress.finish();
+  if (summary.conduction_velocity > 0.0) opts.graph.conduction_velocity = summary.conduction_velocity;  // the PV loops' beats too
+  if (root && opts.velocity_from_sequence)
+    spdlog::info("therapy: the paced wave at {:.3f} m/s, {}", summary.conduction_velocity, summary.conduction_source);
 
   // The beats at the posterior mean, baseline and best site, for the PV loops.
   io::TherapyResults results;

@@ -203,6 +203,10 @@ void write_therapy_h5(const std::filesystem::path& path, const TherapyResults& r
   h5.set_attribute("/summary", "points", s.points.count());
   h5.set_attribute("/summary", "route", r.problem->route);
   h5.set_attribute("/summary", "scar", scar_text(r));
+  if (s.conduction_velocity > 0.0) {
+    h5.set_attribute("/summary", "conduction_velocity", s.conduction_velocity);
+    h5.set_attribute("/summary", "conduction_source", s.conduction_source);
+  }
   h5.set_attribute("/summary", "personalization", personalization_text(r));
   h5.set_attribute("/summary", "responder_threshold", r.problem->options.responder_threshold);
   prov.end_utc = utc_now();
@@ -250,6 +254,9 @@ void write_therapy_json(const std::filesystem::path& path, const std::string& na
                               {"points", s.points.count()},
                               {"personalization", personalization_text(r)},
                               {"scar", scar_text(r)},
+                              {"conduction_velocity_m_per_s", s.conduction_velocity > 0.0 ? nlohmann::ordered_json(s.conduction_velocity)
+                                                                                        : nlohmann::ordered_json(nullptr)},
+                              {"conduction_source", s.conduction_source},
                               {"responder_threshold_percent", r.problem->options.responder_threshold},
                               {"baseline", baseline},
                               {"map", rows(s.map, true)},
@@ -271,6 +278,8 @@ std::string therapy_report(const TherapyResults& r) {
     << estimation::to_string(s.points.method) << "): " << s.simulations << " runs, " << s.failures << " failed; "
     << r.status << "\n";
   o << "personalisation: " << personalization_text(r) << "\nscar: " << scar_text(r) << "\n";
+  if (s.conduction_velocity > 0.0)
+    o << "paced wave on the segment graph: " << s.conduction_velocity << " m/s (" << s.conduction_source << ")\n";
   const Table b = table({s.baseline}, fr, fc);
   o << "baseline: dP/dt max " << format_number(b.raw_mean(0, 0)) << " mmHg/s, SV " << format_number(b.raw_mean(0, 1))
     << " mL, EF " << format_number(b.raw_mean(0, 2)) << " %, EDV " << format_number(b.raw_mean(0, 3)) << " mL, TAT "

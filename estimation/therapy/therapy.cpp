@@ -6,6 +6,7 @@
 #include "observers/pump_work.h"
 
 #include <cmath>
+#include <iomanip>
 #include <memory>
 #include <sstream>
 #include <stdexcept>
@@ -231,6 +232,35 @@ TherapySummary run_therapy_study(const model::Simulator& model, const Eigen::Vec
   }
   TherapyOptions opts = o;
   if (!posterior) opts.propagation.method = PropagationMethod::kPoint;
+  const bool graph_route = act::PacedSimulator::route(model) == "segment activation times";
+  if (graph_route) {
+    s.conduction_velocity = o.graph.conduction_velocity;
+    s.conduction_source = "configured";
+  }
+  if (o.velocity_from_sequence) {
+    if (!graph_route)
+      throw std::invalid_argument("conduction_velocity: intrinsic: " + model.name() +
+                                  " is not paced on the segment graph (its own activation model sets the paced wave)");
+    // The intrinsic sequence at the posterior mean (the base without a posterior).
+    Eigen::VectorXd mean = base_theta;
+    if (posterior) {
+      const Eigen::VectorXd m = posterior->theta_mean();
+      for (size_t j = 0; j < estimated.size(); ++j)
+        for (int i : estimated[j]) mean(i) = m(static_cast<Eigen::Index>(j));
+    }
+    const Therapy baseline{"baseline", true, Mode::kBiventricular, -1, o.timing};
+    act::PacingOutcome intrinsic;
+    act::PacedSimulator(model, pacing_plan(baseline, o), o.graph).paced_theta(mean, &intrinsic);
+    const act::SequenceVelocity v = act::sequence_velocity(intrinsic.segment_times, o.scar);
+    if (!v.failure.empty())
+      throw std::invalid_argument("conduction_velocity: intrinsic: " + v.failure +
+                                  "; give the paced wave's velocity in m/s instead");
+    opts.graph.conduction_velocity = s.conduction_velocity = v.velocity;
+    std::ostringstream m;
+    m << "from the intrinsic sequence at the posterior mean (" << v.segments << " segments, " << v.sources
+      << " source segment(s), R^2 " << std::setprecision(3) << v.r_squared << ")";
+    s.conduction_source = m.str();
+  }
   const bool regional = observers::PumpWork(model.channels()).regional();
   s.names = response_names(regional);
 

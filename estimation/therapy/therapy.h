@@ -68,6 +68,10 @@ struct TherapyOptions {
   bool intrinsic_conduction = true;
   std::vector<int> scar;         // AHA segments that neither conduct nor capture
   model::activation::GraphPacingOptions graph;  // models paced through their segment times
+  // `conduction_velocity: intrinsic`: the paced wave's velocity on the segment graph from the
+  // intrinsic sequence at the posterior mean (activation::sequence_velocity, scar left out) instead
+  // of graph.conduction_velocity; TherapySummary says which it used.
+  bool velocity_from_sequence = false;
   PropagationOptions propagation;
   double responder_threshold = 10.0;  // [%] AHR
   EnsembleOptions ensemble;
@@ -115,6 +119,10 @@ struct TherapySummary {
   std::vector<TherapyOutcome> sweep;  // AV then VV at the best site
   int simulations = 0;
   int failures = 0;                   // failed runs
+  // The paced wave's velocity on the segment graph [m/s] (0 for models paced by their own
+  // capability, lv-3d) and where it came from ("configured", or the intrinsic sequence's fit).
+  double conduction_velocity = 0.0;
+  std::string conduction_source;
   Termination termination = Termination::kOk;
   std::string message;
   bool ok() const { return termination == Termination::kOk; }

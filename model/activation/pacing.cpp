@@ -189,4 +189,57 @@ PacingOutcome segment_pacing(const PacingPlan& plan, const std::array<double, kS
   return out;
 }
 
+SequenceVelocity sequence_velocity(const std::array<double, kSegments>& times, const std::vector<int>& scar,
+                                   double source_window) {
+  SequenceVelocity out;
+  auto in_scar = [&](int k) { return std::find(scar.begin(), scar.end(), k + 1) != scar.end(); };
+  double earliest = kInf;
+  for (int k = 0; k < kSegments; ++k)
+    if (!in_scar(k) && std::isfinite(times[static_cast<size_t>(k)])) earliest = std::min(earliest, times[static_cast<size_t>(k)]);
+  if (!std::isfinite(earliest)) {
+    out.failure = "no segment outside scar has a finite activation time";
+    return out;
+  }
+  // Distances from the nearest source: the graph's own Dijkstra at 1 m/s, no intrinsic sequence.
+  PacingPlan sources;
+  sources.intrinsic = false;
+  for (int k = 0; k < kSegments; ++k)
+    if (!in_scar(k) && times[static_cast<size_t>(k)] <= earliest + source_window)
+      sources.stimuli.push_back({"source", {k + 1, Surface::kEpicardium, std::nullopt}, 0.0});
+  out.sources = static_cast<int>(sources.stimuli.size());
+  std::array<double, kSegments> none;
+  none.fill(kInf);
+  const std::array<double, kSegments> d = segment_pacing(sources, none, {1.0}).segment_times;
+  double n = 0.0, sx = 0.0, sy = 0.0, sxx = 0.0, sxy = 0.0, syy = 0.0;
+  for (int k = 0; k < kSegments; ++k) {
+    const double x = d[static_cast<size_t>(k)], y = times[static_cast<size_t>(k)];
+    if (in_scar(k) || !std::isfinite(x) || !std::isfinite(y)) continue;
+    n += 1.0;
+    sx += x;
+    sy += y;
+    sxx += x * x;
+    sxy += x * y;
+    syy += y * y;
+  }
+  out.segments = static_cast<int>(n);
+  const double vx = n * sxx - sx * sx, vy = n * syy - sy * sy, cxy = n * sxy - sx * sy;
+  if (out.segments < 3 || vx <= 0.0) {
+    out.failure = "fewer than 3 segments outside scar at different distances from the earliest";
+    return out;
+  }
+  const double slope = cxy / vx;  // [s/m]
+  // Slower than 0.1 m/s or faster than 10 m/s is no myocardial conduction (0.3-1 m/s, Durrer et al.
+  // 1970; the Purkinje system 2-4 m/s): a sequence that does not spread from its earliest segments.
+  if (!(slope > 0.1) || !(slope < 10.0)) {
+    std::ostringstream m;
+    m << "the activation times do not spread with the distance from the earliest segment (slope " << slope
+      << " ms/mm; a conduction velocity needs 0.1-10 m/s)";
+    out.failure = m.str();
+    return out;
+  }
+  out.velocity = 1.0 / slope;
+  out.r_squared = vy > 0.0 ? cxy * cxy / (vx * vy) : 0.0;
+  return out;
+}
+
 }  // namespace sigmaheart::model::activation

@@ -6,6 +6,7 @@
 #include "app/config.h"
 #include "app/io/hdf5_writer.h"
 #include "app/personalize_setup.h"
+#include "model/activation/pacing.h"
 #include "model/regional_volume_shares.h"
 #include "tests/app/test_support.h"
 
@@ -115,6 +116,44 @@ TEST(TherapyCommand, PropagatesTheUncertaintyOfAPersonalisationResult) {
   EXPECT_EQ(bad.code, 1) << bad.out << bad.err;
   EXPECT_NE(bad.err.find("did not converge"), std::string::npos) << bad.err;
   EXPECT_TRUE(std::filesystem::exists(dir / "t.failed.h5") || std::filesystem::exists(dir / "t.h5"));
+}
+
+// `conduction_velocity: intrinsic` (issue 47's cohort: the paced wave of a heart whose intrinsic
+// wave is slow is slow too): the velocity the command reports is the fit to the baseline's own
+// segment times, and a sequence without spread is refused at the therapy section.
+TEST(TherapyCommand, TheIntrinsicSequenceSetsThePacedWavesVelocity) {
+  const auto dir = scratch_dir();
+  const CliRun r = therapy(dir, std::string(kRegional) + "therapy:\n  lv_leads: [5]\n  sweep: none\n  conduction_velocity: intrinsic\n");
+  ASSERT_EQ(r.code, 0) << r.out << r.err;
+  const auto j = summary(dir);
+  std::array<double, model::activation::kSegments> times{};
+  for (int k = 0; k < model::activation::kSegments; ++k)
+    times[static_cast<size_t>(k)] = 1e-3 * j["baseline"]["segment_activation_ms"][static_cast<size_t>(k)].get<double>();
+  const auto v = model::activation::sequence_velocity(times, {});
+  ASSERT_TRUE(v.failure.empty()) << v.failure;
+  EXPECT_NEAR(j["conduction_velocity_m_per_s"].get<double>(), v.velocity, 1e-9);
+  EXPECT_NE(j["conduction_source"].get<std::string>().find("intrinsic sequence"), std::string::npos);
+  EXPECT_NE(r.out.find("paced wave on the segment graph"), std::string::npos) << r.out;
+  // The 140 ms LBBB pattern spreads over the wall's longest path (docs/models.md s.3.4): about
+  // 0.5 m/s, not the graph's default 0.6 m/s, so the AHR differs from the configured run's.
+  EXPECT_GT(v.velocity, 0.3);
+  EXPECT_LT(v.velocity, 0.7);
+  const CliRun fixed = therapy(dir, std::string(kRegional) + "therapy:\n  lv_leads: [5]\n  sweep: none\n");
+  ASSERT_EQ(fixed.code, 0) << fixed.err;
+  EXPECT_NEAR(summary(dir)["conduction_velocity_m_per_s"].get<double>(), 0.6, 1e-12);
+  EXPECT_EQ(summary(dir)["conduction_source"], "configured");
+
+  const CliRun sync = therapy(dir, R"(name: therapy-test
+simulator:
+  model: lumped-regional
+  numerics: {dt: 2 ms, activation: synchronous}
+therapy:
+  lv_leads: [5]
+  conduction_velocity: intrinsic
+)");
+  EXPECT_EQ(sync.code, 2) << sync.out << sync.err;
+  EXPECT_NE(sync.err.find("therapy.yaml:6:"), std::string::npos) << sync.err;  // the therapy section
+  EXPECT_NE(sync.err.find("conduction_velocity: intrinsic"), std::string::npos) << sync.err;
 }
 
 TEST(TherapyCommand, AFailingSiteIsReportedAndTheOthersAreWritten) {

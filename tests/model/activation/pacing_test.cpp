@@ -127,5 +127,42 @@ TEST(SegmentPacing, InvalidPlansAreRefused) {
   EXPECT_THROW(segment_pacing(plan, bad), std::invalid_argument);
 }
 
+// A sequence made on the graph itself (two septal sources at 20 ms, 0.7 m/s) gives its velocity
+// back exactly: every time is 20 ms + distance / 0.7 m/s, a line through the (distance, time) points.
+TEST(SequenceVelocity, RecoversTheVelocityOfASequenceMadeOnTheGraph) {
+  PacingPlan made;
+  made.intrinsic = false;
+  made.stimuli = {at(8, 0.02), at(9, 0.02)};
+  std::array<double, kSegments> none;
+  none.fill(std::numeric_limits<double>::infinity());
+  std::array<double, kSegments> times = segment_pacing(made, none, {0.7}).segment_times;
+  SequenceVelocity v = sequence_velocity(times, {});
+  ASSERT_TRUE(v.failure.empty()) << v.failure;
+  EXPECT_NEAR(v.velocity, 0.7, 1e-12);
+  EXPECT_EQ(v.sources, 2);  // the next segment is an edge (>= 15 mm, 21 ms) later: outside the 5 ms window
+  EXPECT_EQ(v.segments, 17);
+  EXPECT_NEAR(v.r_squared, 1.0, 1e-12);
+  // Scar segments are left out of the fit, whatever their times.
+  times[4] = times[5] = 0.4;
+  v = sequence_velocity(times, {5, 6});
+  EXPECT_NEAR(v.velocity, 0.7, 1e-12);
+  EXPECT_EQ(v.segments, 15);
+  EXPECT_LT(sequence_velocity(times, {}).velocity, 0.5);  // the same times with 5, 6 counted: slower
+  // A sequence that does not spread (synchronous) has no velocity, and says why.
+  std::array<double, kSegments> flat;
+  flat.fill(0.03);
+  v = sequence_velocity(flat, {});
+  EXPECT_EQ(v.velocity, 0.0);
+  EXPECT_NE(v.failure.find("fewer than 3 segments"), std::string::npos) << v.failure;  // all are sources at distance 0
+  // Times that fall with the distance from the earliest segment (8, at 30 ms): no conduction from it.
+  PacingPlan from8;
+  from8.intrinsic = false;
+  from8.stimuli = {at(8, 0.0)};
+  const std::array<double, kSegments> d = segment_pacing(from8, none, {1.0}).segment_times;  // [m] at 1 m/s
+  for (int k = 0; k < kSegments; ++k) flat[static_cast<size_t>(k)] = k == 7 ? 0.03 : 0.15 - 1.0 * d[static_cast<size_t>(k)];
+  v = sequence_velocity(flat, {});
+  EXPECT_NE(v.failure.find("do not spread"), std::string::npos) << v.failure;
+}
+
 }  // namespace
 }  // namespace sigmaheart::model::activation
