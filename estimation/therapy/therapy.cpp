@@ -257,8 +257,9 @@ TherapySummary run_therapy_study(const model::Simulator& model, const Eigen::Vec
                                   "; give the paced wave's velocity in m/s instead");
     opts.graph.conduction_velocity = s.conduction_velocity = v.velocity;
     std::ostringstream m;
-    m << "from the intrinsic sequence at the posterior mean (" << v.segments << " segments, " << v.sources
-      << " source segment(s), R^2 " << std::setprecision(3) << v.r_squared << ")";
+    m << "fitted to the intrinsic sequence at the posterior mean: " << v.segments << " segments, breakthrough at segment";
+    for (size_t k = 0; k < v.sources.size(); ++k) m << (k == 0 ? (v.sources.size() > 1 ? "s " : " ") : " and ") << v.sources[k];
+    m << ", R^2 " << std::setprecision(3) << v.r_squared;
     s.conduction_source = m.str();
   }
   const bool regional = observers::PumpWork(model.channels()).regional();

@@ -189,31 +189,28 @@ PacingOutcome segment_pacing(const PacingPlan& plan, const std::array<double, kS
   return out;
 }
 
-SequenceVelocity sequence_velocity(const std::array<double, kSegments>& times, const std::vector<int>& scar,
-                                   double source_window) {
-  SequenceVelocity out;
-  auto in_scar = [&](int k) { return std::find(scar.begin(), scar.end(), k + 1) != scar.end(); };
-  double earliest = kInf;
-  for (int k = 0; k < kSegments; ++k)
-    if (!in_scar(k) && std::isfinite(times[static_cast<size_t>(k)])) earliest = std::min(earliest, times[static_cast<size_t>(k)]);
-  if (!std::isfinite(earliest)) {
-    out.failure = "no segment outside scar has a finite activation time";
-    return out;
-  }
-  // Distances from the nearest source: the graph's own Dijkstra at 1 m/s, no intrinsic sequence.
-  PacingPlan sources;
-  sources.intrinsic = false;
-  for (int k = 0; k < kSegments; ++k)
-    if (!in_scar(k) && times[static_cast<size_t>(k)] <= earliest + source_window)
-      sources.stimuli.push_back({"source", {k + 1, Surface::kEpicardium, std::nullopt}, 0.0});
-  out.sources = static_cast<int>(sources.stimuli.size());
+namespace {
+
+// The least-squares line through (distance, time) over the segments outside scar, the distances
+// from `sources` on the graph.
+struct LineFit {
+  double slope = 0.0;  // [s/m]
+  double r_squared = 0.0;
+  int n = 0;
+  bool spread = false;  // the distances differ
+};
+LineFit fit_from(const std::array<double, kSegments>& times, const std::vector<bool>& in_scar,
+                 const std::vector<int>& sources) {
+  PacingPlan plan;
+  plan.intrinsic = false;
+  for (int k : sources) plan.stimuli.push_back({"source", {k + 1, Surface::kEpicardium, std::nullopt}, 0.0});
   std::array<double, kSegments> none;
   none.fill(kInf);
-  const std::array<double, kSegments> d = segment_pacing(sources, none, {1.0}).segment_times;
+  const std::array<double, kSegments> d = segment_pacing(plan, none, {1.0}).segment_times;  // [m] at 1 m/s
   double n = 0.0, sx = 0.0, sy = 0.0, sxx = 0.0, sxy = 0.0, syy = 0.0;
   for (int k = 0; k < kSegments; ++k) {
     const double x = d[static_cast<size_t>(k)], y = times[static_cast<size_t>(k)];
-    if (in_scar(k) || !std::isfinite(x) || !std::isfinite(y)) continue;
+    if (in_scar[static_cast<size_t>(k)] || !std::isfinite(x) || !std::isfinite(y)) continue;
     n += 1.0;
     sx += x;
     sy += y;
@@ -221,24 +218,64 @@ SequenceVelocity sequence_velocity(const std::array<double, kSegments>& times, c
     sxy += x * y;
     syy += y * y;
   }
-  out.segments = static_cast<int>(n);
+  LineFit f;
+  f.n = static_cast<int>(n);
   const double vx = n * sxx - sx * sx, vy = n * syy - sy * sy, cxy = n * sxy - sx * sy;
-  if (out.segments < 3 || vx <= 0.0) {
-    out.failure = "fewer than 3 segments outside scar at different distances from the earliest";
+  if (f.n < 3 || vx <= 1e-12 * n * sxx) return f;
+  f.spread = true;
+  f.slope = cxy / vx;
+  f.r_squared = vy > 0.0 ? cxy * cxy / (vx * vy) : 0.0;
+  return f;
+}
+
+}  // namespace
+
+SequenceVelocity sequence_velocity(const std::array<double, kSegments>& times, const std::vector<int>& scar) {
+  SequenceVelocity out;
+  std::vector<bool> in_scar(kSegments, false);
+  for (int s : scar)
+    if (s >= 1 && s <= kSegments) in_scar[static_cast<size_t>(s - 1)] = true;
+  // Candidate breakthroughs: every segment outside scar, alone or with a neighbour.
+  std::vector<std::vector<int>> candidates;
+  for (int k = 0; k < kSegments; ++k)
+    if (!in_scar[static_cast<size_t>(k)] && std::isfinite(times[static_cast<size_t>(k)])) candidates.push_back({k});
+  for (const SegmentEdge& e : aha17_graph())
+    if (!in_scar[static_cast<size_t>(e.a - 1)] && !in_scar[static_cast<size_t>(e.b - 1)] &&
+        std::isfinite(times[static_cast<size_t>(e.a - 1)]) && std::isfinite(times[static_cast<size_t>(e.b - 1)]))
+      candidates.push_back({e.a - 1, e.b - 1});
+  if (candidates.empty()) {
+    out.failure = "no segment outside scar has a finite activation time";
     return out;
   }
-  const double slope = cxy / vx;  // [s/m]
   // Slower than 0.1 m/s or faster than 10 m/s is no myocardial conduction (0.3-1 m/s, Durrer et al.
-  // 1970; the Purkinje system 2-4 m/s): a sequence that does not spread from its earliest segments.
-  if (!(slope > 0.1) || !(slope < 10.0)) {
-    std::ostringstream m;
-    m << "the activation times do not spread with the distance from the earliest segment (slope " << slope
-      << " ms/mm; a conduction velocity needs 0.1-10 m/s)";
-    out.failure = m.str();
-    return out;
+  // 1970; the Purkinje system 2-4 m/s).
+  constexpr double kMinSlope = 0.1, kMaxSlope = 10.0;  // [s/m]
+  double best_r2 = -1.0, any_slope = std::nan("");
+  bool any_spread = false;
+  for (const auto& c : candidates) {
+    const LineFit f = fit_from(times, in_scar, c);
+    if (!f.spread) continue;
+    any_spread = true;
+    if (std::isnan(any_slope) || f.r_squared > 0.0) any_slope = f.slope;
+    if (f.slope > kMinSlope && f.slope < kMaxSlope && f.r_squared > best_r2) {
+      best_r2 = f.r_squared;
+      out.velocity = 1.0 / f.slope;
+      out.r_squared = f.r_squared;
+      out.segments = f.n;
+      out.sources.clear();
+      for (int k : c) out.sources.push_back(k + 1);
+    }
   }
-  out.velocity = 1.0 / slope;
-  out.r_squared = vy > 0.0 ? cxy * cxy / (vx * vy) : 0.0;
+  if (best_r2 >= 0.0) return out;
+  out.velocity = 0.0;
+  if (!any_spread) {
+    out.failure = "fewer than 3 segments outside scar with activation times";
+  } else {
+    std::ostringstream m;
+    m << "the activation times do not spread with the distance from any segment or pair of neighbours "
+         "(a conduction velocity of 0.1-10 m/s; a synchronous sequence has none)";
+    out.failure = m.str();
+  }
   return out;
 }
 

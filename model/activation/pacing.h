@@ -110,20 +110,19 @@ PacingOutcome segment_pacing(const PacingPlan& plan, const std::array<double, kS
                              const GraphPacingOptions& options = {});
 
 // The conduction velocity of an intrinsic sequence on the same graph (docs/models.md s.3.6, "The
-// paced wave's velocity"): the sources are the segments outside scar activated within
-// `source_window` of the earliest one (the breakthrough), every segment's distance is its shortest
-// path on aha17_graph() from the nearest source, and the velocity is the inverse slope of the
-// least-squares line through (distance, time) over the segments outside scar. A paced wave crosses
-// the same myocardium as the intrinsic one (the eikonal of lv-3d scales both with its
-// conduction_scale), so a sequence that is slower than the graph's default makes a slower paced wave.
+// paced wave's velocity"): the least-squares line through (distance, time) over the segments outside
+// scar, the distance being a segment's shortest path on aha17_graph() from the breakthrough, which
+// is the segment, or the pair of neighbouring segments, whose line fits best (largest R^2 among the
+// lines of 0.1-10 m/s). The velocity is the line's inverse slope. A paced wave crosses the same
+// myocardium as the intrinsic one (the eikonal of lv-3d scales both with its conduction_scale), so a
+// sequence that is slower than the graph's default makes a slower paced wave.
 struct SequenceVelocity {
-  double velocity = 0.0;  // [m/s]; 0 when `failure` is not empty
-  int segments = 0;       // in the fit
-  int sources = 0;
+  double velocity = 0.0;      // [m/s]; 0 when `failure` is not empty
+  int segments = 0;           // in the fit
+  std::vector<int> sources;   // the breakthrough segments (1..17)
   double r_squared = 0.0;
-  std::string failure;    // why no velocity: a sequence that does not spread (synchronous), too few segments
+  std::string failure;        // why no velocity: a sequence that does not spread (synchronous), too few segments
 };
-SequenceVelocity sequence_velocity(const std::array<double, kSegments>& times, const std::vector<int>& scar,
-                                   double source_window = 5e-3);
+SequenceVelocity sequence_velocity(const std::array<double, kSegments>& times, const std::vector<int>& scar);
 
 }  // namespace sigmaheart::model::activation
