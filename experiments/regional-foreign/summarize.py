@@ -42,13 +42,14 @@ def auc(values, positives):
     return wins / (len(pos) * len(neg))
 
 
-def summarize(name, j):
+def summarize(name, j, infarct=None):
+    """One case's row; infarct: its infarct segments when the case is not one of CASES."""
     params = j["parameters"]
     sigma = {s: params[f"sigma0_{s:02d}"]["value"] for s in SEGMENTS if f"sigma0_{s:02d}" in params}
     median = sorted(sigma.values())[len(sigma) // 2] if len(sigma) % 2 else \
         0.5 * sum(sorted(sigma.values())[len(sigma) // 2 - 1:len(sigma) // 2 + 1])
     rel = {s: v / median for s, v in sigma.items()}
-    infarct = [s for s in CASES.get(name, []) if s in sigma]
+    infarct = [s for s in (CASES.get(name, []) if infarct is None else infarct) if s in sigma]
     scar = sorted(s for s, r in rel.items() if r < SCAR_FRACTION)
     late_healthy_in_scar = [s for s in scar if s in LATE and s not in infarct]
     mr = j.get("map_refinement", {})
