@@ -102,7 +102,7 @@ def main():
         refinement = f"{r['map_on']}, {r['map_steps']}, {r['map_runs']}, {r['map_fell']:.1f}"
         print(f"| {r['case']} | {ended} | {refinement} | {r['nis']:.1f} ({r['band'][0]:.1f}-{r['band'][1]:.1f}) | "
               f"{r['median_kPa']:.1f} | {lowest} | {r['scar'] or '-'} | "
-              f"{'-' if r['auc'] != r['auc'] else format(r['auc'], '.2f')} | "
+              f"{'-' if r['auc'] != r['auc'] else format(r['auc'], '.3f')} | "
               f"{r['late_healthy_in_scar'] or 'none'} | {r['min_rel']:.2f} | {r['runs']} | {r['seconds']:.0f} |")
     missed = [r["case"] for r in rows if not r["targets_met"]]
     print(f"\ntargets met in {len(rows) - len(missed)} of {len(rows)} cases" +
