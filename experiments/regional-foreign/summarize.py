@@ -42,13 +42,14 @@ def auc(values, positives):
     return wins / (len(pos) * len(neg))
 
 
-def summarize(name, j):
+def summarize(name, j, infarct=None):
+    """One case's row; infarct: its infarct segments when the case is not one of CASES."""
     params = j["parameters"]
     sigma = {s: params[f"sigma0_{s:02d}"]["value"] for s in SEGMENTS if f"sigma0_{s:02d}" in params}
     median = sorted(sigma.values())[len(sigma) // 2] if len(sigma) % 2 else \
         0.5 * sum(sorted(sigma.values())[len(sigma) // 2 - 1:len(sigma) // 2 + 1])
     rel = {s: v / median for s, v in sigma.items()}
-    infarct = [s for s in CASES.get(name, []) if s in sigma]
+    infarct = [s for s in (CASES.get(name, []) if infarct is None else infarct) if s in sigma]
     scar = sorted(s for s, r in rel.items() if r < SCAR_FRACTION)
     late_healthy_in_scar = [s for s in scar if s in LATE and s not in infarct]
     mr = j.get("map_refinement", {})
@@ -101,7 +102,7 @@ def main():
         refinement = f"{r['map_on']}, {r['map_steps']}, {r['map_runs']}, {r['map_fell']:.1f}"
         print(f"| {r['case']} | {ended} | {refinement} | {r['nis']:.1f} ({r['band'][0]:.1f}-{r['band'][1]:.1f}) | "
               f"{r['median_kPa']:.1f} | {lowest} | {r['scar'] or '-'} | "
-              f"{'-' if r['auc'] != r['auc'] else format(r['auc'], '.2f')} | "
+              f"{'-' if r['auc'] != r['auc'] else format(r['auc'], '.3f')} | "
               f"{r['late_healthy_in_scar'] or 'none'} | {r['min_rel']:.2f} | {r['runs']} | {r['seconds']:.0f} |")
     missed = [r["case"] for r in rows if not r["targets_met"]]
     print(f"\ntargets met in {len(rows) - len(missed)} of {len(rows)} cases" +
