@@ -76,15 +76,25 @@ act::PacingPlan pacing_plan(const Therapy& therapy, const TherapyOptions& option
   return plan;
 }
 
+bool warm_starts_pay(int followers, int unknowns, bool extra_seed) {
+  return followers * (kColdBeats - kWarmBeats) > unknowns + (extra_seed ? kColdBeats : 0);
+}
+
 namespace {
 
-// One member: (therapy k, point i) -> the raw responses of that run.
+// One member: (therapy k, point i) -> the raw responses of that run, then two bookkeeping columns
+// the study strips: the beats it integrated and 1 when a warm run failed and was run again cold.
+// With `warm` (therapies x warm_start_size(), a row per therapy: its seed run's warm start) a
+// member starts from its therapy's row; a NaN or zero row (a failed seed) is a cold start.
 class MemberModel final : public ForwardModel {
  public:
+  static constexpr int kBookkeeping = 2;
   MemberModel(const model::Simulator& model, std::shared_ptr<const std::vector<act::PacingPlan>> plans,
-              std::shared_ptr<const Eigen::MatrixXd> thetas, act::GraphPacingOptions graph)
+              std::shared_ptr<const Eigen::MatrixXd> thetas, act::GraphPacingOptions graph,
+              std::shared_ptr<const Eigen::MatrixXd> warm = nullptr)
       : model_(model.clone()), plans_(std::move(plans)), thetas_(std::move(thetas)), graph_(graph),
-        indices_({{"dPdt_max", "SV", "EF", "EDV", "ESV"}}, model_->channels()), work_(model_->channels()) {}
+        warm_(std::move(warm)), indices_({{"dPdt_max", "SV", "EF", "EDV", "ESV"}}, model_->channels()),
+        work_(model_->channels()) {}
 
   int input_size() const override { return 2; }
   std::vector<std::string> input_names() const override { return {"therapy", "point"}; }
@@ -94,13 +104,30 @@ class MemberModel final : public ForwardModel {
     out.insert(out.begin() + 5, w.front());
     out.push_back({"TAT", "s", "total activation time: latest minus earliest activation outside scar"});
     out.insert(out.end(), w.begin() + 1, w.end());
+    out.push_back({"beats", "1", "beats integrated by this member's runs"});
+    out.push_back({"cold_retry", "1", "1 when the warm run failed and the member was run again cold"});
     return out;
   }
+  int warm_start_size() const override { return model_->warm_start_size(); }
   model::Status evaluate(const Eigen::Ref<const Eigen::VectorXd>& in, Eigen::Ref<Eigen::VectorXd> z) override {
-    const auto k = static_cast<size_t>(std::lround(in(0)));
+    return evaluate_warm(in, z, Eigen::VectorXd(), nullptr);
+  }
+  model::Status evaluate_warm(const Eigen::Ref<const Eigen::VectorXd>& in, Eigen::Ref<Eigen::VectorXd> z,
+                              const Eigen::VectorXd& from, Eigen::VectorXd* produce) override {
+    const auto k = static_cast<Eigen::Index>(std::lround(in(0)));
     const auto i = static_cast<Eigen::Index>(std::lround(in(1)));
-    act::PacedSimulator paced(*model_, plans_->at(k), graph_);
-    const model::RunResult r = paced.run(thetas_->row(i).transpose());
+    act::PacedSimulator paced(*model_, plans_->at(static_cast<size_t>(k)), graph_);
+    const Eigen::VectorXd theta = thetas_->row(i).transpose();
+    Eigen::VectorXd start = from;
+    if (start.size() == 0 && warm_) start = warm_->row(k).transpose();
+    const bool warm = start.size() > 0 && start.allFinite() && start.cwiseAbs().maxCoeff() > 0.0;
+    model::RunResult r = paced.run_warm(theta, warm ? start : Eigen::VectorXd(), produce);
+    double beats = r.info.beats, retried = 0.0;
+    if (!r.status.ok() && warm) {  // the estimator's policy: a failed warm run is run again cold
+      r = paced.run_warm(theta, Eigen::VectorXd(), produce);
+      beats += r.info.beats;
+      retried = 1.0;
+    }
     if (!r.status.ok()) return r.status;
     Eigen::VectorXd gi(indices_.size()), w(work_.size());
     if (auto s = indices_.observe(r.trajectory, gi); !s.ok()) return s;
@@ -108,11 +135,13 @@ class MemberModel final : public ForwardModel {
     z.head(5) = gi;
     z(5) = w(0);
     z(6) = paced.outcome().total_activation();
-    z.tail(w.size() - 1) = w.tail(w.size() - 1);
+    z.segment(7, w.size() - 1) = w.tail(w.size() - 1);
+    z(z.size() - 2) = beats;
+    z(z.size() - 1) = retried;
     return model::Status::Ok();
   }
   std::unique_ptr<ForwardModel> clone() const override {
-    return std::make_unique<MemberModel>(*model_, plans_, thetas_, graph_);
+    return std::make_unique<MemberModel>(*model_, plans_, thetas_, graph_, warm_);
   }
 
  private:
@@ -120,6 +149,7 @@ class MemberModel final : public ForwardModel {
   std::shared_ptr<const std::vector<act::PacingPlan>> plans_;
   std::shared_ptr<const Eigen::MatrixXd> thetas_;
   act::GraphPacingOptions graph_;
+  std::shared_ptr<const Eigen::MatrixXd> warm_;
   observers::GlobalIndices indices_;
   observers::PumpWork work_;
 };
@@ -154,10 +184,29 @@ Eigen::MatrixXd changes(const Eigen::MatrixXd& raw, const Eigen::MatrixXd& base,
   return c;
 }
 
-// Runs `therapies` at every point; fills their raw rows and statuses.
+// The beats and cold retries of an ensemble's finished members (the bookkeeping columns).
+void count_runs(const EnsembleResult& r, TherapySummary& summary) {
+  const Eigen::Index c = r.Z.cols() - MemberModel::kBookkeeping;
+  for (Eigen::Index m = 0; m < r.Z.rows(); ++m) {
+    if (!std::isfinite(r.Z(m, c))) continue;
+    summary.beats += std::llround(r.Z(m, c));
+    const int retried = static_cast<int>(std::lround(r.Z(m, c + 1)));
+    summary.cold_retries += retried;
+    summary.simulations += retried;
+  }
+  summary.failures += r.failures();
+}
+
+// Runs `therapies` at every point; fills their raw rows and statuses. With `seed` (the full
+// parameter vector at the posterior mean) and a model that takes warm starts, each therapy first
+// runs at the seed, handing on its periodic state and Jacobian, and its points start from that
+// (docs/estimation.md s.12); the seed is the point at the mean when there is one (the star rule's
+// centre), else one more run per therapy. Every member depends only on its (therapy, point) and
+// its therapy's seed, so the numbers are the same for any thread or rank count.
 std::vector<TherapyOutcome> evaluate(const model::Simulator& model, const std::vector<Therapy>& therapies,
                                      const std::shared_ptr<const Eigen::MatrixXd>& thetas, const Eigen::VectorXd& base,
-                                     const TherapyOptions& o, const std::string& phase, TherapySummary& summary) {
+                                     const std::optional<Eigen::VectorXd>& seed, const TherapyOptions& o,
+                                     const std::string& phase, TherapySummary& summary) {
   auto plans = std::make_shared<std::vector<act::PacingPlan>>();
   std::vector<TherapyOutcome> out(therapies.size());
   for (size_t k = 0; k < therapies.size(); ++k) {
@@ -172,19 +221,80 @@ std::vector<TherapyOutcome> evaluate(const model::Simulator& model, const std::v
     out[k].segment_times = at_base.segment_times;
   }
   const int n = static_cast<int>(thetas->rows());
-  const int members = static_cast<int>(therapies.size()) * n;
-  Eigen::MatrixXd inputs(members, 2);
-  for (int k = 0; k < static_cast<int>(therapies.size()); ++k)
-    for (int i = 0; i < n; ++i) inputs.row(k * n + i) << k, i;
-  if (o.on_phase) o.on_phase(phase, members);
-  const MemberModel prototype(model, plans, thetas, o.graph);
-  Ensemble ensemble(prototype, o.ensemble);
-  const EnsembleResult r = ensemble.evaluate(inputs);
-  summary.simulations += members;
-  summary.failures += r.failures();
+  const int count = static_cast<int>(therapies.size());
+  const int members = count * n;
+  // The seed row: a point at the mean, else the mean appended after the points.
+  int seed_row = -1;
+  if (seed)
+    for (int i = 0; i < n && seed_row < 0; ++i)
+      if ((thetas->row(i).transpose() - *seed).cwiseAbs().maxCoeff() == 0.0) seed_row = i;
+  const bool extra = seed_row < 0;
+  const int followers = count * (extra ? n : n - 1);
+  // The unknowns m of a warm start of 2m + m^2 entries: the beats of its Jacobian.
+  const int size = model.warm_start_size();
+  const int unknowns = static_cast<int>(std::lround(std::sqrt(1.0 + size) - 1.0));
+  const bool warm = seed && n > 1 && size > 0 && o.warm_starts != TherapyOptions::WarmStarts::kNever &&
+                    (o.warm_starts == TherapyOptions::WarmStarts::kAlways ||
+                     warm_starts_pay(followers / count, unknowns, extra));
+  Eigen::MatrixXd Z;
+  std::vector<model::Status> status;
+  if (!warm) {
+    Eigen::MatrixXd inputs(members, 2);
+    for (int k = 0; k < count; ++k)
+      for (int i = 0; i < n; ++i) inputs.row(k * n + i) << k, i;
+    if (o.on_phase) o.on_phase(phase, members);
+    const MemberModel prototype(model, plans, thetas, o.graph);
+    Ensemble ensemble(prototype, o.ensemble);
+    EnsembleResult r = ensemble.evaluate(inputs);
+    summary.simulations += members;
+    count_runs(r, summary);
+    Z = std::move(r.Z);
+    status = std::move(r.status);
+  } else {
+    auto all = std::make_shared<Eigen::MatrixXd>(*thetas);
+    if (extra) {
+      seed_row = n;
+      all->conservativeResize(n + 1, Eigen::NoChange);
+      all->row(n) = seed->transpose();
+    }
+    if (o.on_phase) o.on_phase(phase, count + followers);
+    Eigen::MatrixXd seeds(count, 2);
+    for (int k = 0; k < count; ++k) seeds.row(k) << k, seed_row;
+    const MemberModel seeder(model, plans, all, o.graph);
+    Ensemble first(seeder, o.ensemble);
+    const EnsembleResult r1 = first.evaluate(seeds, Eigen::VectorXd(), true);
+    count_runs(r1, summary);
+    // The followers, each from its therapy's warm start (a failed seed's NaN row: cold).
+    Eigen::MatrixXd inputs(followers, 2);
+    for (int k = 0, m = 0; k < count; ++k)
+      for (int i = 0; i < n; ++i)
+        if (i != seed_row) inputs.row(m++) << k, i;
+    EnsembleOptions eo = o.ensemble;
+    if (o.ensemble.progress)
+      eo.progress = [p = o.ensemble.progress, count](int done, int total) { p(count + done, count + total); };
+    const MemberModel follower(model, plans, all, o.graph, std::make_shared<const Eigen::MatrixXd>(r1.warm));
+    Ensemble second(follower, eo);
+    const EnsembleResult r2 = second.evaluate(inputs);
+    count_runs(r2, summary);
+    summary.simulations += count + followers;
+    summary.seed_runs += extra ? count : 0;
+    Z.resize(members, r1.Z.cols());
+    status.resize(static_cast<size_t>(members));
+    for (int k = 0, m = 0; k < count; ++k)
+      for (int i = 0; i < n; ++i) {
+        const int row = k * n + i;
+        if (i == seed_row) {
+          Z.row(row) = r1.Z.row(k);
+          status[static_cast<size_t>(row)] = r1.status[static_cast<size_t>(k)];
+        } else {
+          Z.row(row) = r2.Z.row(m);
+          status[static_cast<size_t>(row)] = r2.status[static_cast<size_t>(m++)];
+        }
+      }
+  }
   for (size_t k = 0; k < therapies.size(); ++k) {
-    out[k].raw = r.Z.middleRows(static_cast<Eigen::Index>(k) * n, n);
-    out[k].status.assign(r.status.begin() + static_cast<long>(k) * n, r.status.begin() + static_cast<long>(k + 1) * n);
+    out[k].raw = Z.block(static_cast<Eigen::Index>(k) * n, 0, n, Z.cols() - MemberModel::kBookkeeping);
+    out[k].status.assign(status.begin() + static_cast<long>(k) * n, status.begin() + static_cast<long>(k + 1) * n);
   }
   return out;
 }
@@ -215,14 +325,20 @@ TherapySummary run_therapy_study(const model::Simulator& model, const Eigen::Vec
   TherapySummary s;
   // The points: the posterior's, each written into base_theta; without one the base itself.
   auto thetas = std::make_shared<Eigen::MatrixXd>();
+  std::optional<Eigen::VectorXd> seed;  // the warm starts' seed: the posterior mean
   if (posterior) {
     if (static_cast<int>(estimated.size()) != posterior->size())
       throw std::invalid_argument("therapy: " + std::to_string(estimated.size()) + " model indices for " +
                                   std::to_string(posterior->size()) + " posterior parameters");
     s.points = propagation_points(*posterior, o.propagation);
     *thetas = base_theta.transpose().replicate(s.points.count(), 1);
+    seed = base_theta;
+    const Eigen::VectorXd mean = posterior->theta_mean();
     for (size_t j = 0; j < estimated.size(); ++j)
-      for (int i : estimated[j]) thetas->col(i) = s.points.theta.col(static_cast<Eigen::Index>(j));
+      for (int i : estimated[j]) {
+        thetas->col(i) = s.points.theta.col(static_cast<Eigen::Index>(j));
+        (*seed)(i) = mean(static_cast<Eigen::Index>(j));
+      }
   } else {
     s.points.method = PropagationMethod::kPoint;
     s.points.eta.resize(1, 0);
@@ -273,7 +389,7 @@ TherapySummary run_therapy_study(const model::Simulator& model, const Eigen::Vec
     for (int j = 0; j < s.sites; ++j)
       therapies.push_back({std::string(to_string(mode)) + " LV " + sites[static_cast<size_t>(j)].describe(), false, mode,
                            j, o.timing});
-  std::vector<TherapyOutcome> all = evaluate(model, therapies, thetas, base_theta, opts, "baseline and lead-site map", s);
+  std::vector<TherapyOutcome> all = evaluate(model, therapies, thetas, base_theta, seed, opts, "baseline and lead-site map", s);
   s.baseline = std::move(all.front());
   s.map.assign(std::make_move_iterator(all.begin() + 1), std::make_move_iterator(all.end()));
   const Eigen::MatrixXd base_raw = s.baseline.raw;
@@ -311,7 +427,7 @@ TherapySummary run_therapy_study(const model::Simulator& model, const Eigen::Vec
       t.vv_delay = vv;
       sweep.push_back({"VV " + std::to_string(std::lround(1e3 * vv)) + " ms" + where, false, Mode::kBiventricular, s.best, t});
     }
-    s.sweep = evaluate(model, sweep, thetas, base_theta, opts, "AV/VV sweep", s);
+    s.sweep = evaluate(model, sweep, thetas, base_theta, seed, opts, "AV/VV sweep", s);
     for (auto& t : s.sweep) summarise(t, s, base_raw, regional, opts);
   }
 

@@ -72,21 +72,25 @@ Eigen::VectorXd PacedSimulator::paced_theta(const Eigen::Ref<const Eigen::Vector
 }
 
 RunResult PacedSimulator::run(const Eigen::Ref<const Eigen::VectorXd>& theta) {
-  if (td_.empty()) return base_->run(theta);
+  return run_warm(theta, Eigen::VectorXd(), nullptr);
+}
+
+RunResult PacedSimulator::run_warm(const Eigen::Ref<const Eigen::VectorXd>& theta, const Eigen::VectorXd& from,
+                                   Eigen::VectorXd* produce) {
+  if (td_.empty()) return base_->run_warm(theta, from, produce);
   RunResult r;
-  if (theta.size() != base_->parameters().size()) {
-    r.status = Status::Error(StatusCode::kInvalidArgument, "theta has the wrong size for " + base_->name());
+  auto refuse = [&](std::string message) {
+    if (produce) *produce = Eigen::VectorXd::Zero(warm_start_size());
+    r.status = Status::Error(StatusCode::kInvalidArgument, std::move(message));
     return r;
-  }
+  };
+  if (theta.size() != base_->parameters().size()) return refuse("theta has the wrong size for " + base_->name());
   const Eigen::VectorXd paced = paced_theta(theta, &outcome_);
   for (int k = 0; k < kSegments; ++k)
-    if (!std::isfinite(paced(td_[static_cast<size_t>(k)]))) {
-      r.status = Status::Error(StatusCode::kInvalidArgument,
-                               "segment " + std::to_string(k + 1) +
-                                   " is never activated: scar encloses it and no intrinsic wave reaches it");
-      return r;
-    }
-  return base_->run(paced);
+    if (!std::isfinite(paced(td_[static_cast<size_t>(k)])))
+      return refuse("segment " + std::to_string(k + 1) +
+                    " is never activated: scar encloses it and no intrinsic wave reaches it");
+  return base_->run_warm(paced, from, produce);
 }
 
 }  // namespace sigmaheart::model::activation

@@ -37,6 +37,11 @@ class PacedSimulator final : public Simulator {
   // kInvalidArgument when a segment is never activated (enclosed by scar with no intrinsic wave).
   RunResult run(const Eigen::Ref<const Eigen::VectorXd>& theta) override;
   std::unique_ptr<Simulator> clone() const override;
+  // The base model's warm starts (Simulator::run_warm), on the paced parameters: a warm start is
+  // only worth handing on between runs of the same plan (the activation times set the beat).
+  int warm_start_size() const override { return base_->warm_start_size(); }
+  RunResult run_warm(const Eigen::Ref<const Eigen::VectorXd>& theta, const Eigen::VectorXd& from,
+                     Eigen::VectorXd* produce) override;
 
   const PacingPlan& plan() const { return plan_; }
   // The activation of the last run (segment route: it depends on theta), or of the plan

@@ -15,6 +15,7 @@
 #include "model/lumped/regional.h"
 
 #include "model/lumped/shell.h"
+#include "model/periodic_shooting.h"
 
 #include "model/bcs/active_law.h"
 #include "model/circulation/circulation.h"
@@ -629,12 +630,22 @@ Eigen::VectorXd RegionalVentricle::sample(const State& state,
 }
 
 RunResult RegionalVentricle::run(const Eigen::Ref<const Eigen::VectorXd>& theta) {
-  if (Status st = check_theta(theta); !st.ok()) return shell::failed_run(channels(), st);
+  return run_warm(theta, Eigen::VectorXd(), nullptr);
+}
+
+int RegionalVentricle::warm_start_size() const { return ShootingWarmStart::packed_size(Layout{n_}.size()); }
+
+RunResult RegionalVentricle::run_warm(const Eigen::Ref<const Eigen::VectorXd>& theta, const Eigen::VectorXd& from,
+                                      Eigen::VectorXd* produce) {
+  if (Status st = check_theta(theta); !st.ok()) {
+    if (produce) *produce = Eigen::VectorXd::Zero(warm_start_size());
+    return shell::failed_run(channels(), st);
+  }
   return shell::run_periodic(
       unpack_model(theta, global_, sigma0_, td_, stiff_, scar_, shares_, options_.numerics.activation_input), options_.numerics,
       channels(), initial_state(theta),
       [&](State& s, double t1, int* its, int* cuts) { return step_to(s, theta, t1, its, cuts); },
-      [&](const State& s) { return sample(s, theta); });
+      [&](const State& s) { return sample(s, theta); }, from.size() > 0 ? &from : nullptr, produce);
 }
 
 }  // namespace sigmaheart::model::lumped

@@ -137,6 +137,11 @@ class RegionalVentricle final : public SteppableSimulator {
   std::vector<Channel> channels() const override;
   RunResult run(const Eigen::Ref<const Eigen::VectorXd>& theta) override;
   std::unique_ptr<Simulator> clone() const override;
+  // The sphere's warm starts (docs/models.md s.2.1): the periodic state of the 4N + 4 unknowns
+  // (72 with 17 patches) with the beat map's Jacobian, 2n + n^2 entries.
+  int warm_start_size() const override;
+  RunResult run_warm(const Eigen::Ref<const Eigen::VectorXd>& theta, const Eigen::VectorXd& from,
+                     Eigen::VectorXd* produce) override;
 
   // y, dy_dt, P_v, P_ar, P_d, c_01..c_(N-1), (e_c, k_c, tau_c) per patch, last_open_valve.
   std::vector<Channel> state_layout() const override;
