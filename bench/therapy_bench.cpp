@@ -72,20 +72,12 @@ void lead_site_map_regional(benchmark::State& bench, bool warm) {
 }
 void BM_LeadSiteMapRegional(benchmark::State& bench) { lead_site_map_regional(bench, true); }
 void BM_LeadSiteMapRegionalCold(benchmark::State& bench) { lead_site_map_regional(bench, false); }
-BENCHMARK(BM_LeadSiteMapRegional)
-    ->Args({2, 2, 0})
-    ->Args({2, 2, 1})
-    ->Unit(benchmark::kSecond)
-    ->Iterations(1)
-    ->UseRealTime()
-    ->MeasureProcessCPUTime();
-BENCHMARK(BM_LeadSiteMapRegionalCold)
-    ->Args({2, 2, 0})
-    ->Args({2, 2, 1})
-    ->Unit(benchmark::kSecond)
-    ->Iterations(1)
-    ->UseRealTime()
-    ->MeasureProcessCPUTime();
+// Both maps: (threads, dt [ms], rule: 0 star, 1 simplex), one iteration, process CPU beside the wall.
+void map_runs(benchmark::internal::Benchmark* b) {
+  b->Args({2, 2, 0})->Args({2, 2, 1})->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime()->MeasureProcessCPUTime();
+}
+BENCHMARK(BM_LeadSiteMapRegional)->Apply(map_runs);
+BENCHMARK(BM_LeadSiteMapRegionalCold)->Apply(map_runs);
 
 // One paced beat of lv-3d: 0 coarse quadratic (dt 10 ms), 1 fine linear (dt 5 ms).
 void BM_TherapyBeat3D(benchmark::State& bench) {
