@@ -357,13 +357,8 @@ TherapySummary run_therapy_study(const model::Simulator& model, const Eigen::Vec
     if (!graph_route)
       throw std::invalid_argument("conduction_velocity: intrinsic: " + model.name() +
                                   " is not paced on the segment graph (its own activation model sets the paced wave)");
-    // The intrinsic sequence at the posterior mean (the base without a posterior).
-    Eigen::VectorXd mean = base_theta;
-    if (posterior) {
-      const Eigen::VectorXd m = posterior->theta_mean();
-      for (size_t j = 0; j < estimated.size(); ++j)
-        for (int i : estimated[j]) mean(i) = m(static_cast<Eigen::Index>(j));
-    }
+    // The intrinsic sequence at the posterior mean (the warm starts' seed; the base without a posterior).
+    const Eigen::VectorXd mean = seed ? *seed : base_theta;
     const Therapy baseline{"baseline", true, Mode::kBiventricular, -1, o.timing};
     act::PacingOutcome intrinsic;
     act::PacedSimulator(model, pacing_plan(baseline, o), o.graph).paced_theta(mean, &intrinsic);

@@ -250,13 +250,12 @@ SequenceVelocity sequence_velocity(const std::array<double, kSegments>& times, c
   // Slower than 0.1 m/s or faster than 10 m/s is no myocardial conduction (0.3-1 m/s, Durrer et al.
   // 1970; the Purkinje system 2-4 m/s).
   constexpr double kMinSlope = 0.1, kMaxSlope = 10.0;  // [s/m]
-  double best_r2 = -1.0, any_slope = std::nan("");
+  double best_r2 = -1.0;
   bool any_spread = false;
   for (const auto& c : candidates) {
     const LineFit f = fit_from(times, in_scar, c);
     if (!f.spread) continue;
     any_spread = true;
-    if (std::isnan(any_slope) || f.r_squared > 0.0) any_slope = f.slope;
     if (f.slope > kMinSlope && f.slope < kMaxSlope && f.r_squared > best_r2) {
       best_r2 = f.r_squared;
       out.velocity = 1.0 / f.slope;
@@ -271,10 +270,8 @@ SequenceVelocity sequence_velocity(const std::array<double, kSegments>& times, c
   if (!any_spread) {
     out.failure = "fewer than 3 segments outside scar with activation times";
   } else {
-    std::ostringstream m;
-    m << "the activation times do not spread with the distance from any segment or pair of neighbours "
-         "(a conduction velocity of 0.1-10 m/s; a synchronous sequence has none)";
-    out.failure = m.str();
+    out.failure = "the activation times do not spread with the distance from any segment or pair of neighbours "
+                  "(a conduction velocity of 0.1-10 m/s; a synchronous sequence has none)";
   }
   return out;
 }

@@ -4,6 +4,7 @@
 
 #include "model/lumped/sphere.h"
 #include "tests/model/simulator_contract.h"
+#include "tests/support/warm_start_check.h"
 
 #include <gtest/gtest.h>
 
@@ -243,34 +244,14 @@ TEST(RegionalVentricle, AWarmStartFromNearbyParametersGivesTheColdBeatInAFewBeat
   o.activation = ActivationPattern::kLbbb;
   o.numerics.dt = 2e-3;
   RegionalVentricle sim(o);
+  ASSERT_EQ(sim.warm_start_size(), 2 * 72 + 72 * 72);
   const ParameterSpace& space = sim.parameters();
   const Eigen::VectorXd theta0 = space.nominal();
-  Eigen::VectorXd warm;
-  const RunResult centre = sim.run_warm(theta0, Eigen::VectorXd(), &warm);
-  ASSERT_TRUE(centre.status.ok()) << centre.status.message;
-  ASSERT_EQ(sim.warm_start_size(), 2 * 72 + 72 * 72);
-  ASSERT_EQ(warm.size(), sim.warm_start_size());
-  EXPECT_EQ(centre.trajectory.values, sim.run(theta0).trajectory.values);
   Eigen::VectorXd theta = theta0;
   theta(space.index_or_throw("sigma0_03")) *= 1.1;
   theta(space.index_or_throw("sigma0_06")) *= 0.9;
   theta(space.index_or_throw("sigma0_12")) *= 1.1;
-  const RunResult cold = sim.run(theta);
-  const RunResult hot = sim.run_warm(theta, warm, nullptr);
-  ASSERT_TRUE(cold.status.ok()) << cold.status.message;
-  ASSERT_TRUE(hot.status.ok()) << hot.status.message;
-  for (const char* channel : {"V_lv", "P_lv", "P_ar", "V_seg06"}) {
-    const Eigen::VectorXd c = cold.trajectory.channel(channel);
-    const Eigen::VectorXd h = hot.trajectory.channel(channel);
-    const double range = c.maxCoeff() - c.minCoeff();
-    // Both within periodic_tolerance (1e-6 of the state's scales) of the periodic state.
-    EXPECT_LT((h - c).cwiseAbs().maxCoeff(), 1e-6 * range) << channel;
-  }
-  EXPECT_LE(hot.info.beats, 8);
-  EXPECT_GE(cold.info.beats, 10);
-  const RunResult zeros = sim.run_warm(theta, Eigen::VectorXd::Zero(warm.size()), nullptr);
-  EXPECT_EQ(zeros.trajectory.values, cold.trajectory.values);
-  EXPECT_EQ(zeros.info.beats, cold.info.beats);
+  testing::expect_warm_start_gives_the_cold_beat(sim, theta0, theta, {"V_lv", "P_lv", "P_ar", "V_seg06"}, 8);
 }
 
 TEST(RegionalVentricle, UnequalStiffnessRebalancesTensionWithinTheFirstStep) {
