@@ -94,7 +94,8 @@ double inflation_factor(const ConfigNode& n, const std::optional<io::PosteriorFi
 }
 
 void parse_uncertainty(const ConfigNode& u, estimation::PropagationOptions& o) {
-  u.check_keys({"method", "sigma_points", "kappa", "alpha", "beta", "samples", "seed", "interval", "inflate"});
+  u.check_keys({"method", "sigma_points", "kappa", "alpha", "beta", "samples", "seed", "interval", "inflate",
+                "model_error"});
   if (u.has("method"))
     o.method = *estimation::parse_propagation_method(u["method"].as_choice({"unscented", "monte-carlo", "point"}));
   if (u.has("sigma_points"))
@@ -159,6 +160,20 @@ TherapyProblem parse_therapy(const Config& config) {
     if (t["uncertainty"].has("inflate")) {
       p.inflation = inflation_factor(t["uncertainty"]["inflate"], p.personalization);
       if (p.personalization) p.personalization->posterior.eta_covariance *= p.inflation;
+    }
+  }
+  if (t.has("uncertainty") && t["uncertainty"].has("model_error")) {
+    // model_error: {ahr: 9 %, shared: 50 %} (or none): the model's AHR error against a reference.
+    const ConfigNode n = t["uncertainty"]["model_error"];
+    if (!(n.is_scalar() && n.as<std::string>() == "none")) {
+      if (!n.is_map()) n.fail("expected none or {ahr: <standard deviation in %>, shared: <fraction of it common to every site>}");
+      n.check_keys({"ahr", "shared"});
+      o.model_error.ahr_sd = n.require_quantity("ahr", "%");
+      if (!(o.model_error.ahr_sd >= 0.0 && o.model_error.ahr_sd <= 100.0))
+        n["ahr"].fail("expected the standard deviation of the model's AHR error, 0-100 % (AHR points)");
+      if (n.has("shared")) o.model_error.shared = fraction(n["shared"]);
+      if (!(o.model_error.shared >= 0.0 && o.model_error.shared <= 1.0))
+        n["shared"].fail("expected the fraction of the error's variance common to every site, 0-100 %");
     }
   }
   if (const int np = p.personalization ? p.personalization->posterior.size() : 1;

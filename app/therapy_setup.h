@@ -8,6 +8,9 @@
 //                   interval: 90 %, inflate: none}  # method unscented | monte-carlo | point
 //                                # inflate: none | nis (a personalize result's covariance times its
 //                                # mean NIS over its expectation, when above 1) | a factor >= 1
+//                   model_error: {ahr: 9 %, shared: 50 %}}   # or none (default): the model's own
+//                                # AHR error against a reference (a validation cohort's), added to
+//                                # every AHR; `shared`: the part common to every site (0 % default)
 //     responder_threshold: 10 %  # AHR above which a therapy counts as a response
 //     scar: auto                 # auto (segments whose contractility at the estimate is below
 //                                # scar_threshold of the median) | none | [7, 13, ...]

@@ -188,6 +188,45 @@ ResponseMoments response_moments(const PropagationPoints& points, const Eigen::M
   return m;
 }
 
+void add_response_error(ResponseMoments& m, const PropagationPoints& points, const Eigen::MatrixXd& Y,
+                        Eigen::Index j, double sd, const PropagationOptions& options) {
+  if (!(sd >= 0.0 && std::isfinite(sd))) throw std::invalid_argument("add_response_error: sd must be >= 0");
+  if (j < 0 || j >= Y.cols()) throw std::invalid_argument("add_response_error: no response column " + std::to_string(j));
+  if (m.error_sd.size() != Y.cols()) m.error_sd = Eigen::VectorXd::Zero(Y.cols());
+  const double previous = m.error_sd(j);
+  m.error_sd(j) = std::sqrt(previous * previous + sd * sd);
+  if (!m.ok || sd == 0.0) return;
+  m.covariance(j, j) += sd * sd;
+  m.std(j) = std::sqrt(std::max(0.0, m.covariance(j, j)));
+  if (points.method != PropagationMethod::kMonteCarlo) {
+    const double z = sensitivity::normal_quantile(0.5 + 0.5 * options.interval);
+    m.lower(j) = m.mean(j) - z * m.std(j);
+    m.upper(j) = m.mean(j) + z * m.std(j);
+    return;
+  }
+  // The mixture F(x) = mean_i Phi((x - y_i) / e) of the finite rows, e the whole added error.
+  std::vector<double> y;
+  for (Eigen::Index i = 0; i < Y.rows(); ++i)
+    if (Y.row(i).allFinite()) y.push_back(Y(i, j));
+  const double e = m.error_sd(j);
+  auto cdf = [&](double x) {
+    double sum = 0.0;
+    for (double v : y) sum += normal_cdf((x - v) / e);
+    return sum / static_cast<double>(y.size());
+  };
+  const auto [lo, hi] = std::minmax_element(y.begin(), y.end());
+  auto solve = [&](double q) {
+    double a = *lo - 10.0 * e, b = *hi + 10.0 * e;  // F(a) < 1e-20 < q < 1 - 1e-20 < F(b)
+    for (int it = 0; it < 200 && b - a > 1e-12 * (1.0 + std::abs(a) + std::abs(b)); ++it) {
+      const double c = 0.5 * (a + b);
+      (cdf(c) < q ? a : b) = c;
+    }
+    return 0.5 * (a + b);
+  };
+  m.lower(j) = solve(0.5 - 0.5 * options.interval);
+  m.upper(j) = solve(0.5 + 0.5 * options.interval);
+}
+
 Eigen::VectorXd probability_above(const PropagationPoints& points, const Eigen::MatrixXd& Y,
                                   const ResponseMoments& moments, double threshold,
                                   const PropagationOptions& options) {
@@ -197,13 +236,15 @@ Eigen::VectorXd probability_above(const PropagationPoints& points, const Eigen::
   if (!moments.ok) return p;
   for (Eigen::Index j = 0; j < r; ++j) {
     if (points.method == PropagationMethod::kMonteCarlo) {
-      int above = 0, n = 0;
+      const double e = moments.error_sd.size() == r ? moments.error_sd(j) : 0.0;
+      double above = 0.0;
+      int n = 0;
       for (Eigen::Index i = 0; i < Y.rows(); ++i) {
         if (!Y.row(i).allFinite()) continue;
         ++n;
-        above += Y(i, j) > threshold ? 1 : 0;
+        above += e > 0.0 ? normal_cdf((Y(i, j) - threshold) / e) : (Y(i, j) > threshold ? 1.0 : 0.0);
       }
-      p(j) = static_cast<double>(above) / n;
+      p(j) = above / n;
     } else if (moments.std(j) > 0.0) {
       p(j) = normal_cdf((moments.mean(j) - threshold) / moments.std(j));
     } else {
@@ -223,10 +264,22 @@ Eigen::VectorXd probability_largest(const PropagationPoints& points, const Eigen
     y.maxCoeff(&best);  // first of equal maxima
     count(best) += 1.0;
   };
-  if (points.method == PropagationMethod::kMonteCarlo) {
+  const bool added = moments.error_sd.size() == r && moments.error_sd.maxCoeff() > 0.0;
+  if (points.method == PropagationMethod::kMonteCarlo && added) {
+    // Each finite row with draws of the independent errors, about kLargestDraws votes in all.
+    std::vector<int> rows = finite_rows(Y);
+    const int per_row = std::max(1, kLargestDraws / std::max<int>(1, static_cast<int>(rows.size())));
+    PolarNormal normal(sensitivity::make_stream(options.seed, kLargestStream));
+    Eigen::VectorXd y(r);
+    for (int i : rows)
+      for (int k = 0; k < per_row; ++k) {
+        for (Eigen::Index j = 0; j < r; ++j) y(j) = Y(i, j) + moments.error_sd(j) * normal.next();
+        vote(y);
+      }
+  } else if (points.method == PropagationMethod::kMonteCarlo) {
     for (Eigen::Index i = 0; i < Y.rows(); ++i)
       if (Y.row(i).allFinite()) vote(Y.row(i).transpose());
-  } else if (points.method == PropagationMethod::kPoint || moments.covariance.cwiseAbs().maxCoeff() == 0.0) {
+  } else if (moments.covariance.cwiseAbs().maxCoeff() == 0.0) {
     vote(moments.mean);
   } else {
     const Eigen::MatrixXd S = covariance_sqrt(moments.covariance);

@@ -73,6 +73,8 @@ struct ResponseMoments {
   Eigen::MatrixXd covariance;   // responses x responses
   int failed_points = 0;        // rows of Y with a NaN (Monte Carlo drops them; UT cannot)
   bool ok = true;               // false: the UT lost a point (every moment NaN)
+  // Per response, the standard deviation of an error added by add_response_error (empty: none).
+  Eigen::VectorXd error_sd;
 };
 
 // Y: points x responses, NaN rows where the response failed. The unscented transform needs every
@@ -81,15 +83,29 @@ struct ResponseMoments {
 ResponseMoments response_moments(const PropagationPoints& points, const Eigen::MatrixXd& Y,
                                  const PropagationOptions& options);
 
+// A response error independent of the parameters, y_true = y(theta) + delta with delta ~ N(0, sd^2)
+// (a model's error against a reference, measured on a validation cohort: the part of the
+// prediction's uncertainty no posterior over the model's own parameters can show; Kennedy &
+// O'Hagan 2001, J R Stat Soc B 63:425). Column j's variance gains sd^2 (covariance diagonal, std)
+// and its interval becomes the central `interval` of the sum: UT and point: the Gaussian of the
+// widened moments; Monte Carlo: the sample convolved with N(0, sd^2), its quantiles solved for
+// exactly (bisection on the mixture's CDF). Records sd in moments.error_sd, which
+// probability_above then convolves too. Throws std::invalid_argument for sd < 0 or j out of range.
+void add_response_error(ResponseMoments& moments, const PropagationPoints& points, const Eigen::MatrixXd& Y,
+                        Eigen::Index j, double sd, const PropagationOptions& options);
+
 // P(response_j > threshold) for each column: UT and point: the Gaussian of the moments (a point
-// mean gives 0 or 1); Monte Carlo: the fraction of finite rows.
+// mean gives 0 or 1); Monte Carlo: the fraction of finite rows, or with an added error (error_sd)
+// the mean over them of P(y_i + delta > threshold).
 Eigen::VectorXd probability_above(const PropagationPoints& points, const Eigen::MatrixXd& Y,
                                   const ResponseMoments& moments, double threshold,
                                   const PropagationOptions& options);
 
 // P(column j is the largest of the columns of Y) (ties to the lowest index): UT: 20 000 draws of
 // the joint Gaussian (mean, covariance) of the columns, seeded by options.seed; Monte Carlo: the
-// fraction of finite rows; point: 1 for the largest mean. Sums to 1 (NaN when no moments).
+// fraction of finite rows (with added errors, error_sd: each row with seeded draws of them, about
+// 20 000 in all); point: 1 for the largest mean, or with added errors the draws of the UT. Sums to 1
+// (NaN when no moments).
 Eigen::VectorXd probability_largest(const PropagationPoints& points, const Eigen::MatrixXd& Y,
                                     const ResponseMoments& moments, const PropagationOptions& options);
 

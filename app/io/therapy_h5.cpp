@@ -40,7 +40,7 @@ Eigen::VectorXd factors(const std::vector<std::string>& names, const std::vector
 // Rows of one group of therapies (the map or the sweep).
 struct Table {
   Eigen::MatrixXd raw_mean, raw_std, raw_lower, raw_upper, change_mean, change_std, change_lower, change_upper;
-  Eigen::VectorXd p_responder, av, vv;
+  Eigen::VectorXd p_responder, ahr_std_posterior, av, vv;
   Eigen::MatrixXd activation;  // therapies x 17 segment activation times at the base parameters [ms]
   std::vector<std::int64_t> segment;
   std::vector<std::string> label, mode, surface, status, failure, note, captured;
@@ -54,6 +54,7 @@ Table table(const std::vector<th::TherapyOutcome>& group, const Eigen::VectorXd&
   t.change_mean = t.change_std = t.change_lower = t.change_upper = Eigen::MatrixXd::Constant(n, fc.size(), nan);
   t.activation.resize(n, model::activation::kSegments);
   t.p_responder.resize(n);
+  t.ahr_std_posterior.resize(n);
   t.av.resize(n);
   t.vv.resize(n);
   for (Eigen::Index k = 0; k < n; ++k) {
@@ -72,6 +73,7 @@ Table table(const std::vector<th::TherapyOutcome>& group, const Eigen::VectorXd&
     }
     for (int j = 0; j < model::activation::kSegments; ++j) t.activation(k, j) = 1e3 * o.segment_times[static_cast<size_t>(j)];
     t.p_responder(k) = o.p_responder;
+    t.ahr_std_posterior(k) = o.ahr_std_posterior * fc(th::TherapySummary::kAhr);
     t.av(k) = 1e3 * o.therapy.timing.av_delay;
     t.vv(k) = 1e3 * o.therapy.timing.vv_delay;
     t.label.push_back(o.therapy.label);
@@ -108,6 +110,9 @@ void write_table(Hdf5Writer& h5, const std::string& g, const Table& t, const std
                                 {"change_lower", &t.change_lower}, {"change_upper", &t.change_upper}})
     h5.write_matrix(g + "/" + name, *m, change_u, t.label, change_names);
   h5.write_vector(g + "/p_responder", t.p_responder, "1");
+  h5.write_vector(g + "/ahr_std_posterior", t.ahr_std_posterior, "%");
+  h5.set_attribute(g + "/ahr_std_posterior", "description",
+                   "AHR's standard deviation from the posterior alone; change_std adds the model error (/summary model_error_ahr)");
   h5.write_matrix(g + "/segment_activation", t.activation, "ms", t.label);
   h5.set_attribute(g + "/segment_activation", "description",
                    "mean activation time of each AHA segment under the therapy, at the base parameters, intrinsic clock");
@@ -135,6 +140,13 @@ std::string personalization_text(const TherapyResults& r) {
   for (const auto& name : p->marginalised) text += "; " + name + " marginalised (observation clock only)";
   if (r.problem->inflation > 1.0) text += "; covariance inflated x" + format_number(r.problem->inflation, 3);
   return text + ")";
+}
+
+std::string model_error_text(const TherapyResults& r) {
+  const auto& e = r.problem->options.model_error;
+  if (!(e.ahr_sd > 0.0)) return "none (the intervals are the posterior's alone)";
+  return "AHR +- " + format_number(e.ahr_sd, 3) + " % (1 std), " + format_number(100.0 * e.shared, 3) +
+         " % of its variance shared by every site; added to the posterior's spread";
 }
 
 std::string scar_text(const TherapyResults& r) {
@@ -208,6 +220,9 @@ void write_therapy_h5(const std::filesystem::path& path, const TherapyResults& r
     h5.set_attribute("/summary", "conduction_source", s.conduction_source);
   }
   h5.set_attribute("/summary", "personalization", personalization_text(r));
+  h5.set_attribute("/summary", "model_error", model_error_text(r));
+  h5.set_attribute("/summary", "model_error_ahr", r.problem->options.model_error.ahr_sd);
+  h5.set_attribute("/summary", "model_error_shared", r.problem->options.model_error.shared);
   h5.set_attribute("/summary", "responder_threshold", r.problem->options.responder_threshold);
   prov.end_utc = utc_now();
   write_provenance(h5, prov);
@@ -231,6 +246,8 @@ void write_therapy_json(const std::filesystem::path& path, const std::string& na
         const auto C = static_cast<Eigen::Index>(c);
         e[s.names.change[c]] = {{"mean", number(t.change_mean(K, C))}, {"std", number(t.change_std(K, C))},
                                 {"lower", number(t.change_lower(K, C))}, {"upper", number(t.change_upper(K, C))}};
+        if (static_cast<int>(c) == th::TherapySummary::kAhr)
+          e[s.names.change[c]]["std_posterior"] = number(t.ahr_std_posterior(K));
       }
       e["p_responder"] = number(t.p_responder(K));
       if (with_best && K < s.p_best.size()) e["p_best"] = number(s.p_best(K));
@@ -253,6 +270,8 @@ void write_therapy_json(const std::filesystem::path& path, const std::string& na
                               {"method", estimation::to_string(s.points.method)},
                               {"points", s.points.count()},
                               {"personalization", personalization_text(r)},
+                              {"model_error", {{"ahr_std_percent", r.problem->options.model_error.ahr_sd},
+                                               {"shared", r.problem->options.model_error.shared}}},
                               {"scar", scar_text(r)},
                               {"conduction_velocity_m_per_s", s.conduction_velocity > 0.0 ? nlohmann::ordered_json(s.conduction_velocity)
                                                                                         : nlohmann::ordered_json(nullptr)},
@@ -278,6 +297,7 @@ std::string therapy_report(const TherapyResults& r) {
     << estimation::to_string(s.points.method) << "): " << s.simulations << " runs, " << s.failures << " failed; "
     << r.status << "\n";
   o << "personalisation: " << personalization_text(r) << "\nscar: " << scar_text(r) << "\n";
+  if (r.problem->options.model_error.ahr_sd > 0.0) o << "model error: " << model_error_text(r) << "\n";
   if (s.conduction_velocity > 0.0)
     o << "paced wave on the segment graph: " << s.conduction_velocity << " m/s (" << s.conduction_source << ")\n";
   const Table b = table({s.baseline}, fr, fc);

@@ -52,6 +52,9 @@ std::string TherapyOptions::validate() const {
   if (!(responder_threshold > -100.0 && std::isfinite(responder_threshold)))
     return "responder_threshold must be a finite AHR above -100 %";
   if (const std::string m = graph.validate(); !m.empty()) return m;
+  if (!(model_error.ahr_sd >= 0.0 && model_error.ahr_sd <= 100.0))
+    return "model_error: the AHR error's standard deviation must lie in [0, 100] %";
+  if (!(model_error.shared >= 0.0 && model_error.shared <= 1.0)) return "model_error: shared must lie in [0, 100] %";
   act::PacingPlan probe;
   probe.scar = scar;
   probe.stimuli.push_back({"RV", rv_site, 0.0});
@@ -310,6 +313,9 @@ void summarise(TherapyOutcome& t, const TherapySummary& s, const Eigen::MatrixXd
       t.failure = "point " + std::to_string(i) + ": " + model::to_string(t.status[i].code) + ": " + t.status[i].message;
   if (t.failure.empty() && !t.change_moments.ok) t.failure = "the baseline failed";
   if (t.failure.empty() && !t.raw_moments.ok) t.failure = "no responses";
+  t.ahr_std_posterior = t.change_moments.ok ? t.change_moments.std(TherapySummary::kAhr) : std::nan("");
+  if (!t.therapy.baseline && o.model_error.ahr_sd > 0.0)
+    add_response_error(t.change_moments, s.points, t.change, TherapySummary::kAhr, o.model_error.ahr_sd, o.propagation);
   t.p_responder =
       probability_above(s.points, t.change, t.change_moments, o.responder_threshold, o.propagation)(TherapySummary::kAhr);
 }
@@ -400,7 +406,11 @@ TherapySummary run_therapy_study(const model::Simulator& model, const Eigen::Vec
   if (!ok_sites.empty()) {
     Eigen::MatrixXd ahr(s.points.count(), static_cast<Eigen::Index>(ok_sites.size()));
     for (size_t c = 0; c < ok_sites.size(); ++c) ahr.col(static_cast<Eigen::Index>(c)) = s.map[static_cast<size_t>(ok_sites[c])].change.col(0);
-    const ResponseMoments m = response_moments(s.points, ahr, opts.propagation);
+    ResponseMoments m = response_moments(s.points, ahr, opts.propagation);
+    // The model error's part independent per site reorders them; the shared part does not.
+    const double independent = o.model_error.ahr_sd * std::sqrt(1.0 - o.model_error.shared);
+    if (m.ok && independent > 0.0)
+      for (Eigen::Index c = 0; c < ahr.cols(); ++c) add_response_error(m, s.points, ahr, c, independent, opts.propagation);
     const Eigen::VectorXd p = probability_largest(s.points, ahr, m, opts.propagation);
     Eigen::Index c = 0;
     m.mean.maxCoeff(&c);

@@ -73,6 +73,15 @@ struct TherapyOptions {
   // of graph.conduction_velocity; TherapySummary says which it used.
   bool velocity_from_sequence = false;
   PropagationOptions propagation;
+  // The model's own AHR error against a reference (docs/estimation.md s.12.4): a validation
+  // cohort's, which no posterior over the model's parameters shows. ahr_sd [%, AHR points] is added
+  // to every therapy's AHR (std, interval, P(responder); add_response_error); `shared` is the
+  // fraction of its variance common to every lead site (a heart's bias, which moves all sites
+  // together and reorders none), the rest independent per site, which P(best) draws as well.
+  struct ModelError {
+    double ahr_sd = 0.0;
+    double shared = 0.0;
+  } model_error;
   double responder_threshold = 10.0;  // [%] AHR
   EnsembleOptions ensemble;
   // Warm starts across the points (docs/estimation.md s.12.3): per therapy one run at the posterior
@@ -114,7 +123,8 @@ struct TherapyOutcome {
   std::vector<model::Status> status;  // per point
   ResponseMoments raw_moments;
   Eigen::MatrixXd change;      // points x change responses (the baseline: zeros)
-  ResponseMoments change_moments;
+  ResponseMoments change_moments;  // with the model error on AHR, when one is given
+  double ahr_std_posterior = 0.0;  // AHR's standard deviation from the posterior alone [%]
   double p_responder = 0.0;    // P(AHR > responder threshold)
   std::string failure;         // empty when the therapy has moments
   bool ok() const { return failure.empty(); }

@@ -106,6 +106,75 @@ TEST(Propagation, ProbabilitiesFollowTheMomentsOrTheSample) {
   EXPECT_NEAR(best(2), 0.0, 1e-12);
 }
 
+double phi(double z) { return 0.5 * std::erfc(-z / std::sqrt(2.0)); }
+
+TEST(Propagation, AnAddedErrorWidensTheGaussianMomentsExactly) {
+  const Posterior post = linear_posterior();
+  PropagationOptions o;
+  const PropagationPoints pts = propagation_points(post, o);
+  Eigen::MatrixXd A(2, 3);
+  A << 2.0, -1.0, 0.5, 0.0, 3.0, 1.0;
+  const Eigen::MatrixXd y = apply(pts.theta, A, Eigen::Vector2d(10.0, -4.0));
+  ResponseMoments m = response_moments(pts, y, o);
+  const ResponseMoments before = m;
+  add_response_error(m, pts, y, 0, 1.5, o);
+  const double var = (A.row(0) * post.eta_covariance * A.row(0).transpose())(0, 0) + 2.25;  // exact, plus 1.5^2
+  EXPECT_NEAR(m.mean(0), before.mean(0), 1e-15);
+  EXPECT_NEAR(m.std(0), std::sqrt(var), 1e-12);
+  EXPECT_NEAR(m.upper(0) - m.mean(0), 1.6448536269514722 * std::sqrt(var), 1e-9);
+  EXPECT_NEAR(m.lower(0) - m.mean(0), -1.6448536269514722 * std::sqrt(var), 1e-9);
+  EXPECT_EQ(m.std(1), before.std(1));  // the other response untouched
+  EXPECT_EQ(m.covariance(0, 1), before.covariance(0, 1));
+  EXPECT_NEAR(probability_above(pts, y, m, 12.0, o)(0), phi((m.mean(0) - 12.0) / std::sqrt(var)), 1e-15);
+  // Point propagation: the error is the whole spread.
+  PropagationOptions po;
+  po.method = PropagationMethod::kPoint;
+  PropagationPoints one;
+  one.method = PropagationMethod::kPoint;
+  one.eta.resize(1, 0);
+  one.theta.resize(1, 0);
+  one.wm = one.wc = Eigen::VectorXd::Ones(1);
+  const Eigen::MatrixXd y1 = Eigen::MatrixXd::Constant(1, 1, 20.0);
+  ResponseMoments m1 = response_moments(one, y1, po);
+  add_response_error(m1, one, y1, 0, 4.0, po);
+  EXPECT_NEAR(m1.std(0), 4.0, 1e-15);
+  EXPECT_NEAR(m1.lower(0), 20.0 - 1.6448536269514722 * 4.0, 1e-9);
+  EXPECT_NEAR(probability_above(one, y1, m1, 10.0, po)(0), phi(2.5), 1e-15);
+  EXPECT_THROW(add_response_error(m1, one, y1, 0, -1.0, po), std::invalid_argument);
+  EXPECT_THROW(add_response_error(m1, one, y1, 1, 1.0, po), std::invalid_argument);
+}
+
+TEST(Propagation, AnAddedErrorConvolvesTheMonteCarloSample) {
+  // A sample of two values, 0 and 6, and an error of std 1: the interval's ends are where the
+  // mixture (Phi(x) + Phi(x - 6)) / 2 takes 0.05 and 0.95 (solved here by hand-written bisection).
+  PropagationOptions o;
+  o.method = PropagationMethod::kMonteCarlo;
+  PropagationPoints pts;
+  pts.method = PropagationMethod::kMonteCarlo;
+  pts.eta.resize(3, 0);
+  pts.theta.resize(3, 0);
+  pts.wm = pts.wc = Eigen::VectorXd::Constant(3, 0.5);
+  Eigen::MatrixXd y(3, 1);
+  y << 0.0, 6.0, std::nan("");  // a failed point, dropped
+  ResponseMoments m = response_moments(pts, y, o);
+  add_response_error(m, pts, y, 0, 1.0, o);
+  auto mixture = [](double x) { return 0.5 * (phi(x) + phi(x - 6.0)); };
+  EXPECT_NEAR(mixture(m.lower(0)), 0.05, 1e-9);
+  EXPECT_NEAR(mixture(m.upper(0)), 0.95, 1e-9);
+  EXPECT_NEAR(m.lower(0) + m.upper(0), 6.0, 1e-9);  // symmetric
+  EXPECT_NEAR(m.std(0), std::sqrt(18.0 + 1.0), 1e-12);  // sample variance 18 (n - 1 = 1), plus 1
+  EXPECT_NEAR(probability_above(pts, y, m, 5.0, o)(0), 0.5 * (phi(-5.0) + phi(1.0)), 1e-15);
+  // Two responses, equal without the error: the draws split the votes; 2 apart with independent
+  // errors of std 1: P(second largest) = Phi(2 / sqrt(2)) = 0.921.
+  Eigen::MatrixXd two(3, 2);
+  two << 0.0, 2.0, 1.0, 3.0, std::nan(""), std::nan("");
+  ResponseMoments m2 = response_moments(pts, two, o);
+  for (int j = 0; j < 2; ++j) add_response_error(m2, pts, two, j, 1.0, o);
+  const Eigen::VectorXd best = probability_largest(pts, two, m2, o);
+  EXPECT_NEAR(best(1), phi(std::sqrt(2.0)), 0.01);
+  EXPECT_NEAR(best.sum(), 1.0, 1e-12);
+}
+
 TEST(Propagation, TheUnscentedTransformNeedsEveryPointMonteCarloDropsTheFailedOnes) {
   const Posterior post = linear_posterior();
   PropagationOptions ut;

@@ -268,6 +268,44 @@ TEST(TherapyCommand, AnInflatedPosteriorWidensTheIntervalsBySquareRootOfTheFacto
   EXPECT_NE(small.err.find("a factor >= 1"), std::string::npos) << small.err;
 }
 
+// The model's own AHR error (uncertainty.model_error) adds its variance to each site's AHR; the part
+// shared by every site leaves P(best) as the posterior gives it, the independent part spreads it.
+TEST(TherapyCommand, AModelErrorAddsItsVarianceToEverySitesAhr) {
+  const auto dir = scratch_dir();
+  write_personalization(dir / "p.h5", "lumped-regional", "completed");
+  const std::string base = std::string(kRegional) + "therapy:\n  personalization: p.h5\n  lv_leads: [5, 11]\n"
+                                                    "  sweep: none\n  pv_loops: false\n";
+  ASSERT_EQ(therapy(dir, base).code, 0);
+  const nlohmann::json plain = summary(dir);
+  const CliRun shared = therapy(dir, base + "  uncertainty: {model_error: {ahr: 5 %, shared: 100 %}}\n");
+  ASSERT_EQ(shared.code, 0) << shared.err;
+  const nlohmann::json with = summary(dir);
+  EXPECT_NE(shared.out.find("model error: AHR +- 5 %"), std::string::npos) << shared.out;
+  EXPECT_EQ(with["model_error"]["ahr_std_percent"].get<double>(), 5.0);
+  for (int k = 0; k < 2; ++k) {
+    const auto& a = with["map"][k]["AHR"];
+    const double post = plain["map"][k]["AHR"]["std"].get<double>();
+    EXPECT_NEAR(a["std_posterior"].get<double>(), post, 1e-12);
+    EXPECT_NEAR(a["std"].get<double>(), std::sqrt(post * post + 25.0), 1e-9);
+    EXPECT_NEAR(a["upper"].get<double>() - a["mean"].get<double>(), 1.6448536 * a["std"].get<double>(), 1e-5);
+    EXPECT_NEAR(a["mean"].get<double>(), plain["map"][k]["AHR"]["mean"].get<double>(), 1e-12);
+    const double p = 0.5 * std::erfc(-(a["mean"].get<double>() - 10.0) / (a["std"].get<double>() * std::sqrt(2.0)));
+    EXPECT_NEAR(with["map"][k]["p_responder"].get<double>(), p, 1e-12);
+    EXPECT_EQ(with["map"][k]["p_best"].get<double>(), plain["map"][k]["p_best"].get<double>());
+  }
+  // Independent per site: P(best) moves towards one half.
+  ASSERT_EQ(therapy(dir, base + "  uncertainty: {model_error: {ahr: 5 %}}\n").code, 0);
+  const double p_best = summary(dir)["map"][0]["p_best"].get<double>(), p_plain = plain["map"][0]["p_best"].get<double>();
+  EXPECT_LT(std::abs(p_best - 0.5), std::abs(p_plain - 0.5)) << p_best << " " << p_plain;
+  const CliRun negative = therapy(dir, base + "  uncertainty: {model_error: {ahr: -2 %}}\n");
+  EXPECT_EQ(negative.code, 2);
+  EXPECT_NE(negative.err.find("therapy.yaml:10:"), std::string::npos) << negative.err;
+  EXPECT_NE(negative.err.find("model's AHR error"), std::string::npos) << negative.err;
+  const CliRun over = therapy(dir, base + "  uncertainty: {model_error: {ahr: 5 %, shared: 150 %}}\n");
+  EXPECT_EQ(over.code, 2);
+  EXPECT_NE(over.err.find("common to every site"), std::string::npos) << over.err;
+}
+
 // Bad input: exit 2, the message at file:line:column of the key, before any run.
 void expect_bad(const std::string& config, const std::string& at, const std::string& what) {
   const auto dir = scratch_dir();
