@@ -41,7 +41,10 @@ def _plot_map(f, out_dir, stem) -> List[str]:
     bullseye(axes[0], mean, "AHR, mean", "RdBu_r", -span, span, "dP/dt max change [%]",
              fmt="{:.1f}", marked=(best_seg,) if best_seg else ())
     width = upper - lower
-    bullseye(axes[1], width, "AHR, width of the 90 % interval", "viridis", 0.0,
+    model_error = float(f["summary"].attrs.get("model_error_ahr", 0.0))
+    width_title = "AHR, width of the 90 % interval" + (
+        f"\n(with the model error, {model_error:.3g} points SD)" if model_error > 0 else "")
+    bullseye(axes[1], width, width_title, "viridis", 0.0,
              max(np.nanmax(width), 0.1) if np.isfinite(width).any() else 1.0, "percentage points",
              fmt="{:.1f}")
     bullseye(axes[2], p_best, "probability of the best site", "viridis", 0.0, 1.0, "P(best)", fmt="{:.2f}")
