@@ -108,6 +108,16 @@ TEST(Propagation, ProbabilitiesFollowTheMomentsOrTheSample) {
 
 double phi(double z) { return 0.5 * std::erfc(-z / std::sqrt(2.0)); }
 
+// Points without parameters (the rows of a response given directly), each of weight w.
+PropagationPoints bare_points(PropagationMethod method, int n, double w) {
+  PropagationPoints pts;
+  pts.method = method;
+  pts.eta.resize(n, 0);
+  pts.theta.resize(n, 0);
+  pts.wm = pts.wc = Eigen::VectorXd::Constant(n, w);
+  return pts;
+}
+
 TEST(Propagation, AnAddedErrorWidensTheGaussianMomentsExactly) {
   const Posterior post = linear_posterior();
   PropagationOptions o;
@@ -129,11 +139,7 @@ TEST(Propagation, AnAddedErrorWidensTheGaussianMomentsExactly) {
   // Point propagation: the error is the whole spread.
   PropagationOptions po;
   po.method = PropagationMethod::kPoint;
-  PropagationPoints one;
-  one.method = PropagationMethod::kPoint;
-  one.eta.resize(1, 0);
-  one.theta.resize(1, 0);
-  one.wm = one.wc = Eigen::VectorXd::Ones(1);
+  const PropagationPoints one = bare_points(PropagationMethod::kPoint, 1, 1.0);
   const Eigen::MatrixXd y1 = Eigen::MatrixXd::Constant(1, 1, 20.0);
   ResponseMoments m1 = response_moments(one, y1, po);
   add_response_error(m1, one, y1, 0, 4.0, po);
@@ -146,14 +152,10 @@ TEST(Propagation, AnAddedErrorWidensTheGaussianMomentsExactly) {
 
 TEST(Propagation, AnAddedErrorConvolvesTheMonteCarloSample) {
   // A sample of two values, 0 and 6, and an error of std 1: the interval's ends are where the
-  // mixture (Phi(x) + Phi(x - 6)) / 2 takes 0.05 and 0.95 (solved here by hand-written bisection).
+  // mixture (Phi(x) + Phi(x - 6)) / 2 takes 0.05 and 0.95 (checked with the mixture written here).
   PropagationOptions o;
   o.method = PropagationMethod::kMonteCarlo;
-  PropagationPoints pts;
-  pts.method = PropagationMethod::kMonteCarlo;
-  pts.eta.resize(3, 0);
-  pts.theta.resize(3, 0);
-  pts.wm = pts.wc = Eigen::VectorXd::Constant(3, 0.5);
+  const PropagationPoints pts = bare_points(PropagationMethod::kMonteCarlo, 3, 0.5);
   Eigen::MatrixXd y(3, 1);
   y << 0.0, 6.0, std::nan("");  // a failed point, dropped
   ResponseMoments m = response_moments(pts, y, o);
