@@ -73,7 +73,7 @@ struct TherapyOptions {
   // of graph.conduction_velocity; TherapySummary says which it used.
   bool velocity_from_sequence = false;
   PropagationOptions propagation;
-  // The model's own AHR error against a reference (docs/estimation.md s.12.4): a validation
+  // The model's own AHR error against a reference (docs/estimation.md s.12.2): a validation
   // cohort's, which no posterior over the model's parameters shows. ahr_sd [%, AHR points] is added
   // to every therapy's AHR (std, interval, P(responder); add_response_error); `shared` is the
   // fraction of its variance common to every lead site (a heart's bias, which moves all sites
